@@ -1,0 +1,627 @@
+//! The extraction driver: validation, the parallel pass over slabs of
+//! cells, welding, the triangle cap, progress and cancellation.
+//!
+//! Determinism: the volume is cut into slabs of cell layers along z, each
+//! processed by one worker in cell order (k, j, i). Vertices are numbered
+//! in order of first use in that global cell order, and points are welded
+//! when their global index coordinates are bit-identical (which is exactly
+//! how `vtkMarchingCubes` merges points, samples equal to the isovalue
+//! included). Neither depends on the number or size of slabs, so the output
+//! is identical for any thread count.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::filter::{ReconstructionFilter, Trilinear};
+use crate::mc::{case_index, cell_triangles};
+use crate::mesh::{Mesh, Stats};
+use crate::normals::compute_normals;
+use crate::options::Options;
+use crate::refine::{shared_fixed_axes, Counters, Refiner, Tri};
+use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
+use crate::volume::{Grid, Samples, Scalar, Volume};
+use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
+
+/// A small multiplicative hasher for point keys (no DoS concern: keys are
+/// our own coordinates).
+#[derive(Default)]
+pub(crate) struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(*b as u64);
+        }
+    }
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+}
+
+pub(crate) type KeyMap<V> = HashMap<[u64; 3], V, BuildHasherDefault<KeyHasher>>;
+
+#[inline]
+pub(crate) fn key(p: DVec3) -> [u64; 3] {
+    // +0.0 and -0.0 weld together.
+    [
+        (p.x + 0.0).to_bits(),
+        (p.y + 0.0).to_bits(),
+        (p.z + 0.0).to_bits(),
+    ]
+}
+
+/// Extracts the isosurface `isovalue` of `volume`.
+///
+/// See the crate documentation for the method and [`Options`] for the
+/// settings. Returns an error for invalid input; never panics on any input.
+pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<Mesh, Error> {
+    extract_with_progress(volume, isovalue, options, &mut |_| ControlFlow::Continue(()))
+}
+
+/// Like [`extract`], reporting progress.
+///
+/// `progress(fraction)` is called on the calling thread, first with 0.0,
+/// then about every 20 ms while workers run, and last with 1.0 on success.
+/// Returning `ControlFlow::Break(())` stops the extraction within a few
+/// milliseconds; it then returns [`Error::Aborted`].
+pub fn extract_with_progress(
+    volume: &Volume<'_>,
+    isovalue: f64,
+    options: &Options,
+    progress: &mut dyn FnMut(f64) -> ControlFlow<()>,
+) -> Result<Mesh, Error> {
+    volume.validate()?;
+    if !isovalue.is_finite() {
+        return Err(Error::InvalidIsovalue(isovalue));
+    }
+    if !(options.epsilon.is_finite() && options.epsilon >= 0.0) {
+        return Err(Error::InvalidEpsilon(options.epsilon));
+    }
+    if options.max_level > MAX_LEVEL_LIMIT {
+        return Err(Error::InvalidMaxLevel(options.max_level));
+    }
+    match volume.samples {
+        Samples::I8(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::U8(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::I16(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::U16(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::I32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::U32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::I64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::U64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::F32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+        Samples::F64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    /// Produce the mesh; stop when the cap is exceeded.
+    Output { cap: u64 },
+    /// Only count refinement-tree nodes per level.
+    Count,
+}
+
+struct Shared<'a, F: ReconstructionFilter> {
+    filter: &'a F,
+    cell_dims: [usize; 3],
+    index_offset: [i64; 3],
+    iso: f64,
+    options: &'a Options,
+    max_level: u32,
+    refine: bool,
+    cancel: &'a AtomicBool,
+    over_cap: &'a AtomicBool,
+    emitted: &'a AtomicU64,
+    layers_done: &'a AtomicU64,
+}
+
+#[derive(Default)]
+struct SlabOut {
+    verts: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    levels: Vec<u8>,
+    mc_tris: u64,
+    ambiguous: u64,
+    nonfinite: u64,
+    counters: Counters,
+    refine_time: Duration,
+    total_time: Duration,
+}
+
+fn run<T: Scalar>(
+    grid: Grid<'_, T>,
+    volume: &Volume<'_>,
+    iso: f64,
+    options: &Options,
+    progress: &mut dyn FnMut(f64) -> ControlFlow<()>,
+) -> Result<Mesh, Error> {
+    let start = Instant::now();
+    if progress(0.0).is_break() {
+        return Err(Error::Aborted);
+    }
+    let filter = Trilinear::new(grid);
+    let threads = if options.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        options.threads
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::ThreadPool(e.to_string()))?;
+    let cell_dims = [
+        grid.dims[0] - 1,
+        grid.dims[1] - 1,
+        grid.dims[2] - 1,
+    ];
+    let nz = cell_dims[2];
+    // Slabs: several per thread for balance; the result does not depend on it.
+    let nslabs = nz.min(threads * 8).max(1);
+    let slabs: Vec<(usize, usize)> = (0..nslabs)
+        .map(|s| (s * nz / nslabs, (s + 1) * nz / nslabs))
+        .filter(|(a, b)| b > a)
+        .collect();
+
+    let refine = options.refines();
+    let user_cap = if options.max_triangles == 0 {
+        HARD_TRIANGLE_CAP
+    } else {
+        options.max_triangles.min(HARD_TRIANGLE_CAP)
+    };
+    let cancel = AtomicBool::new(false);
+    let over_cap = AtomicBool::new(false);
+    let emitted = AtomicU64::new(0);
+    let layers_done = AtomicU64::new(0);
+    let mut stats = Stats {
+        cells: volume.cell_count(),
+        ..Stats::default()
+    };
+
+    // Runs one pass over all slabs while the calling thread reports progress.
+    let mut pass = |max_level: u32, mode: Mode, weight: (f64, f64)| -> Result<Vec<SlabOut>, Error> {
+        emitted.store(0, Ordering::Relaxed);
+        layers_done.store(0, Ordering::Relaxed);
+        over_cap.store(false, Ordering::Relaxed);
+        let shared = Shared {
+            filter: &filter,
+            cell_dims,
+            index_offset: grid.index_offset,
+            iso,
+            options,
+            max_level,
+            refine: refine && max_level > 0,
+            cancel: &cancel,
+            over_cap: &over_cap,
+            emitted: &emitted,
+            layers_done: &layers_done,
+        };
+        let (tx, rx) = std::sync::mpsc::channel();
+        let outs = std::thread::scope(|scope| {
+            let shared = &shared;
+            let slabs = &slabs;
+            let pool = &pool;
+            scope.spawn(move || {
+                let r: Vec<SlabOut> = pool.install(|| {
+                    slabs
+                        .par_iter()
+                        .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
+                        .collect()
+                });
+                let _ = tx.send(r);
+            });
+            loop {
+                match rx.recv_timeout(Duration::from_millis(20)) {
+                    Ok(r) => break r,
+                    Err(_) => {
+                        let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
+                        if progress(weight.0 + weight.1 * done.min(1.0)).is_break() {
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                    }
+                }
+            }
+        });
+        if cancel.load(Ordering::Relaxed) {
+            return Err(Error::Aborted);
+        }
+        Ok(outs)
+    };
+
+    let mut max_level = if refine { options.max_level } else { 0 };
+    let mut outs = pass(max_level, Mode::Output { cap: user_cap }, (0.0, 0.9))?;
+    if over_cap.load(Ordering::Relaxed) {
+        // Too many triangles: count refinement trees per level, then redo
+        // the pass at the highest level whose output fits the cap.
+        drop(outs);
+        let counts = pass(max_level, Mode::Count, (0.3, 0.3))?;
+        let mut nodes = [0u64; 16];
+        let mut leaves = [0u64; 16];
+        for o in &counts {
+            for l in 0..16 {
+                nodes[l] += o.counters.nodes_per_level[l];
+                leaves[l] += o.counters.per_level[l];
+            }
+        }
+        let total_at = |l: usize| nodes[l] + leaves[..l].iter().sum::<u64>();
+        let mut chosen = 0;
+        for l in 0..=max_level as usize {
+            if total_at(l) <= user_cap {
+                chosen = l;
+            }
+        }
+        max_level = chosen as u32;
+        stats.budget_reached = true;
+        outs = pass(max_level, Mode::Output { cap: u64::MAX }, (0.6, 0.35))?;
+    }
+    stats.effective_max_level = max_level;
+
+    let t_asm = Instant::now();
+    let mut mesh = assemble(outs, volume, &mut stats)?;
+    stats.time_assemble = t_asm.elapsed().as_secs_f64();
+    if progress(0.97).is_break() {
+        return Err(Error::Aborted);
+    }
+    let t_n = Instant::now();
+    mesh.normals = compute_normals(&filter, volume, &mesh.index_points, options.normals, &pool);
+    stats.time_normals = t_n.elapsed().as_secs_f64();
+    stats.time_total = start.elapsed().as_secs_f64();
+    stats.output_triangles = mesh.triangles.len() as u64;
+    stats.output_points = mesh.points.len() as u64;
+    mesh.stats = stats;
+    if progress(1.0).is_break() {
+        return Err(Error::Aborted);
+    }
+    Ok(mesh)
+}
+
+fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
+    sh: &Shared<'_, F>,
+    k0: usize,
+    k1: usize,
+    mode: Mode,
+) -> SlabOut {
+    let t0 = Instant::now();
+    let mut out = SlabOut::default();
+    let mut map: KeyMap<u32> = KeyMap::default();
+    let mut edge_tris: Vec<[u8; 3]> = Vec::with_capacity(16);
+    let mut stack: Vec<Tri> = Vec::with_capacity(64);
+    let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
+    let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
+    let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
+    let [nx, ny, _] = sh.cell_dims;
+    let count_only = mode == Mode::Count;
+    let cap = match mode {
+        Mode::Output { cap } => cap,
+        Mode::Count => u64::MAX,
+    };
+    let mut reported = 0u64;
+    let opts = sh.options;
+    'layers: for k in k0..k1 {
+        for j in 0..ny {
+            if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
+                break 'layers;
+            }
+            if !count_only {
+                let n = out.tris.len() as u64;
+                if n > reported {
+                    let total = sh.emitted.fetch_add(n - reported, Ordering::Relaxed) + (n - reported);
+                    reported = n;
+                    if total > cap {
+                        sh.over_cap.store(true, Ordering::Relaxed);
+                        break 'layers;
+                    }
+                }
+            }
+            for i in 0..nx {
+                let Some(c) = sh.filter.load([i, j, k]) else {
+                    out.nonfinite += 1;
+                    continue;
+                };
+                let mut f = [0.0; 8];
+                for q in 0..8 {
+                    f[q] = c[q] - sh.iso;
+                }
+                let case = case_index(&f);
+                if case == 0 || case == 255 {
+                    continue;
+                }
+                edge_tris.clear();
+                if cell_triangles(&f, opts.topology, &mut edge_tris) {
+                    out.ambiguous += 1;
+                }
+                let cell_g = [
+                    sh.index_offset[0] + i as i64,
+                    sh.index_offset[1] + j as i64,
+                    sh.index_offset[2] + k as i64,
+                ];
+                let cell_f = DVec3::new(cell_g[0] as f64, cell_g[1] as f64, cell_g[2] as f64);
+                let mut ids = [u32::MAX; 12];
+                let mut loc = [DVec3::ZERO; 12];
+                kept.clear();
+                pos_of.clear();
+                for tri in &edge_tris {
+                    let mut tid = [0u32; 3];
+                    for (slot, &e) in tri.iter().enumerate() {
+                        let e = e as usize;
+                        if ids[e] == u32::MAX {
+                            let [a, b] = EDGES[e];
+                            let (sa, sb) = (c[a as usize], c[b as usize]);
+                            // vtkMarchingCubes: t from the lower corner.
+                            let t = (sh.iso - sa) / (sb - sa);
+                            let ca = CORNERS[a as usize];
+                            let mut g = [
+                                (cell_g[0] + ca[0] as i64) as f64,
+                                (cell_g[1] + ca[1] as i64) as f64,
+                                (cell_g[2] + ca[2] as i64) as f64,
+                            ];
+                            let ax = EDGE_AXIS[e] as usize;
+                            g[ax] += t;
+                            let gp = DVec3::from_array(g);
+                            loc[e] = gp - cell_f;
+                            if count_only {
+                                ids[e] = e as u32;
+                            } else {
+                                let next = out.verts.len() as u32;
+                                ids[e] = *map.entry(key(gp)).or_insert_with(|| {
+                                    out.verts.push(gp);
+                                    next
+                                });
+                            }
+                        }
+                        tid[slot] = ids[e];
+                    }
+                    if count_only {
+                        // Degeneracy by position when ids are not welded.
+                        let p = [loc[tri[0] as usize], loc[tri[1] as usize], loc[tri[2] as usize]];
+                        if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
+                            continue;
+                        }
+                    } else if tid[0] == tid[1] || tid[1] == tid[2] || tid[0] == tid[2] {
+                        continue;
+                    }
+                    kept.push(tid);
+                    pos_of.push(loc[tri[0] as usize]);
+                    pos_of.push(loc[tri[1] as usize]);
+                    pos_of.push(loc[tri[2] as usize]);
+                }
+                out.mc_tris += kept.len() as u64;
+                if !sh.refine {
+                    for t in &kept {
+                        out.tris.push(*t);
+                        out.levels.push(0);
+                    }
+                    out.counters.per_level[0] += kept.len() as u64;
+                    out.counters.nodes_per_level[0] += kept.len() as u64;
+                    continue;
+                }
+                let tr = Instant::now();
+                // Boundary edges of the cell's patch lie on cell faces.
+                uses.clear();
+                for t in &kept {
+                    for e in 0..3 {
+                        let (a, b) = (t[e], t[(e + 1) % 3]);
+                        let pair = if a < b { (a, b) } else { (b, a) };
+                        match uses.iter_mut().find(|u| u.0 == pair) {
+                            Some(u) => u.1 += 1,
+                            None => uses.push((pair, 1)),
+                        }
+                    }
+                }
+                let mut refiner = Refiner::<F> {
+                    cell: &c,
+                    iso: sh.iso,
+                    epsilon: opts.epsilon,
+                    max_level: sh.max_level,
+                    rule: opts.rule,
+                    counters: &mut out.counters,
+                    stack: &mut stack,
+                };
+                for (n, t) in kept.iter().enumerate() {
+                    let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
+                    let mut fixed = [0u8; 3];
+                    for e in 0..3 {
+                        let (a, b) = (t[e], t[(e + 1) % 3]);
+                        let pair = if a < b { (a, b) } else { (b, a) };
+                        let boundary = uses.iter().find(|u| u.0 == pair).map_or(false, |u| u.1 == 1);
+                        if boundary {
+                            fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
+                        }
+                    }
+                    let root = Tri {
+                        v: *t,
+                        p,
+                        fixed,
+                        level: 0,
+                    };
+                    if count_only {
+                        refiner.run(root, false, &mut |_| {}, &mut |_| 0);
+                    } else {
+                        let verts = &mut out.verts;
+                        let tris = &mut out.tris;
+                        let levels = &mut out.levels;
+                        refiner.run(
+                            root,
+                            true,
+                            &mut |tri: &Tri| {
+                                tris.push(tri.v);
+                                levels.push(tri.level);
+                            },
+                            &mut |p: DVec3| {
+                                let gp = cell_f + p;
+                                let next = verts.len() as u32;
+                                *map.entry(key(gp)).or_insert_with(|| {
+                                    verts.push(gp);
+                                    next
+                                })
+                            },
+                        );
+                    }
+                }
+                out.refine_time += tr.elapsed();
+            }
+        }
+        sh.layers_done.fetch_add(1, Ordering::Relaxed);
+    }
+    out.total_time = t0.elapsed();
+    out
+}
+
+/// Welds the slabs' vertices (only points on a slab's bottom plane can
+/// already exist in the slab before it), numbers them in order of first
+/// use, and builds the output arrays.
+fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Result<Mesh, Error> {
+    let nv: usize = outs.iter().map(|o| o.verts.len()).sum();
+    let nt: usize = outs.iter().map(|o| o.tris.len()).sum();
+    let mut mesh = Mesh::default();
+    reserve(&mut mesh.index_points, nv)?;
+    reserve(&mut mesh.triangles, nt)?;
+    reserve(&mut mesh.levels, nt)?;
+    let mut counters = Counters::default();
+    let (mut refine_t, mut total_t) = (Duration::ZERO, Duration::ZERO);
+    let mut prev_plane: KeyMap<u64> = KeyMap::default();
+    let mut remap: Vec<u64> = Vec::new();
+    for o in &outs {
+        stats.mc_triangles += o.mc_tris;
+        stats.ambiguous_cells += o.ambiguous;
+        stats.skipped_nonfinite_cells += o.nonfinite;
+        counters.samples += o.counters.samples;
+        counters.splits += o.counters.splits;
+        counters.failures += o.counters.failures;
+        counters.above_eps += o.counters.above_eps;
+        refine_t += o.refine_time;
+        total_t += o.total_time;
+        // The lowest z of this slab's vertices is its bottom plane.
+        let bottom = o.verts.iter().map(|v| v.z).fold(f64::INFINITY, f64::min);
+        let top = o.verts.iter().map(|v| v.z).fold(f64::NEG_INFINITY, f64::max);
+        remap.clear();
+        let mut next_plane: KeyMap<u64> = KeyMap::default();
+        for v in &o.verts {
+            let id = if v.z == bottom {
+                if let Some(&g) = prev_plane.get(&key(*v)) {
+                    g
+                } else {
+                    mesh.index_points.push(v.to_array());
+                    (mesh.index_points.len() - 1) as u64
+                }
+            } else {
+                mesh.index_points.push(v.to_array());
+                (mesh.index_points.len() - 1) as u64
+            };
+            if v.z == top {
+                next_plane.insert(key(*v), id);
+            }
+            remap.push(id);
+        }
+        for (t, l) in o.tris.iter().zip(&o.levels) {
+            mesh.triangles.push([remap[t[0] as usize], remap[t[1] as usize], remap[t[2] as usize]]);
+            mesh.levels.push(*l);
+        }
+        prev_plane = next_plane;
+    }
+    remove_duplicate_triangles(&mut mesh);
+    // World coordinates.
+    reserve(&mut mesh.points, mesh.index_points.len())?;
+    for p in &mesh.index_points {
+        mesh.points.push([
+            volume.origin[0] + volume.spacing[0] * p[0],
+            volume.origin[1] + volume.spacing[1] * p[1],
+            volume.origin[2] + volume.spacing[2] * p[2],
+        ]);
+    }
+    let n = mesh.levels.len() as f64;
+    stats.max_level = mesh.levels.iter().copied().max().unwrap_or(0) as u32;
+    stats.mean_level = if n > 0.0 {
+        mesh.levels.iter().map(|&l| l as f64).sum::<f64>() / n
+    } else {
+        0.0
+    };
+    stats.samples_evaluated = counters.samples;
+    stats.split_points = counters.splits;
+    stats.projection_failures = counters.failures;
+    stats.faces_above_epsilon = counters.above_eps;
+    // Per-thread times summed; scale the split to the wall time of the pass.
+    let total = total_t.as_secs_f64();
+    let share = if total > 0.0 { refine_t.as_secs_f64() / total } else { 0.0 };
+    let _ = share;
+    stats.time_refine = refine_t.as_secs_f64();
+    stats.time_mc = (total_t - refine_t.min(total_t)).as_secs_f64();
+    Ok(mesh)
+}
+
+fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
+    v.try_reserve_exact(n)
+        .map_err(|_| Error::OutOfMemory(n.saturating_mul(std::mem::size_of::<T>())))
+}
+
+/// Samples equal to the isovalue can make two cells emit the same
+/// triangle, flat in a shared face: a pair of opposite orientation bounds
+/// nothing and is removed, a repeated one is kept once. Only triangles whose
+/// three points are grid points can coincide, so only those are checked.
+fn remove_duplicate_triangles(mesh: &mut Mesh) {
+    let on_grid = |id: u64, pts: &Vec<[f64; 3]>| {
+        let p = pts[id as usize];
+        p.iter().all(|c| c.fract() == 0.0)
+    };
+    let mut cand: Vec<(usize, [u64; 3], bool)> = Vec::new();
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        if t.iter().all(|&v| on_grid(v, &mesh.index_points)) {
+            let mut s = *t;
+            // Rotate so the smallest id is first; the parity tells orientation.
+            let r = (0..3).min_by_key(|&k| s[k]).unwrap();
+            s.rotate_left(r);
+            let flipped = s[1] > s[2];
+            if flipped {
+                s.swap(1, 2);
+            }
+            cand.push((n, s, flipped));
+        }
+    }
+    if cand.is_empty() {
+        return;
+    }
+    cand.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.cmp(&b.0)));
+    let mut drop = vec![false; mesh.triangles.len()];
+    let mut i = 0;
+    while i < cand.len() {
+        let mut j = i;
+        while j < cand.len() && cand[j].1 == cand[i].1 {
+            j += 1;
+        }
+        let group = &cand[i..j];
+        if group.len() > 1 {
+            let ups = group.iter().filter(|g| !g.2).count();
+            let downs = group.len() - ups;
+            // Keep the surplus orientation once, at its first occurrence.
+            let keep_dir = if ups > downs { Some(false) } else if downs > ups { Some(true) } else { None };
+            let mut kept = false;
+            for g in group {
+                if Some(g.2) == keep_dir && !kept {
+                    kept = true;
+                } else {
+                    drop[g.0] = true;
+                }
+            }
+        }
+        i = j;
+    }
+    let mut w = 0;
+    for r in 0..mesh.triangles.len() {
+        if !drop[r] {
+            mesh.triangles[w] = mesh.triangles[r];
+            mesh.levels[w] = mesh.levels[r];
+            w += 1;
+        }
+    }
+    mesh.triangles.truncate(w);
+    mesh.levels.truncate(w);
+}

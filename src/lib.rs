@@ -1,0 +1,68 @@
+//! # PreciseMC
+//!
+//! Isosurfaces of regular volumes that follow the data more closely than
+//! Marching Cubes: the method of Allamandri, Cignoni, Montani and Scopigno,
+//! "Adaptively adjusting Marching Cubes output to fit a trilinear
+//! reconstruction filter".
+//!
+//! 1. Marching Cubes runs with ambiguities resolved so that, inside every
+//!    cell, the mesh has the topology of the isosurface `S_K` of the
+//!    trilinear interpolant ([`Topology::Trilinear`], the default), or with
+//!    the table of `vtkMarchingCubes` ([`Topology::Classic`]).
+//! 2. Each triangle is then refined adaptively ([`Rule`] A, A1, A2 or B):
+//!    sample points farther than `epsilon` (cell units) from `S_K` become
+//!    split points, moved onto `S_K` along the gradient line, recursively up
+//!    to `max_level`.
+//!
+//! The mesh is welded, consistently oriented (normals towards lower
+//! values), crack-free, and bit-identical for any thread count and any
+//! split of the volume into pieces that share a layer of samples.
+//!
+//! ```
+//! use precisemc::{extract, Options, Volume};
+//! // A sphere of radius 5 sampled on a 16^3 grid.
+//! let n = 16u64;
+//! let mut data = Vec::new();
+//! for k in 0..n { for j in 0..n { for i in 0..n {
+//!     let (x, y, z) = (i as f32 - 7.5, j as f32 - 7.5, k as f32 - 7.5);
+//!     data.push((x * x + y * y + z * z).sqrt());
+//! }}}
+//! let volume = Volume::new(&data, [n, n, n]);
+//! let mesh = extract(&volume, 5.0, &Options::default()).unwrap();
+//! assert!(mesh.stats.output_triangles >= mesh.stats.mc_triangles);
+//! assert_eq!(mesh.triangles.len() as u64, mesh.stats.output_triangles);
+//! ```
+
+#![warn(missing_docs)]
+
+mod error;
+mod mesh;
+mod options;
+mod volume;
+
+pub mod ffi;
+pub mod filter;
+pub mod mc;
+pub mod project;
+pub mod samples;
+pub mod tables;
+
+mod extract;
+mod normals;
+mod refine;
+
+pub use error::Error;
+pub use extract::{extract, extract_with_progress};
+pub use mesh::{Mesh, Stats};
+pub use options::{NormalMode, Options, Rule, Topology};
+pub use volume::{Samples, Scalar, ScalarType, Volume};
+
+/// Highest accepted `max_level`. Each level can multiply a triangle by 4,
+/// and levels beyond 10 only add triangles far below any useful epsilon.
+pub const MAX_LEVEL_LIMIT: u32 = 10;
+
+/// Output triangles never exceed this many, whatever the options, so that a
+/// tiny epsilon with a high max level cannot exhaust memory (about 64 bytes
+/// per triangle with its share of points: 16 GiB at most). Refinement stops
+/// at the highest level that fits, like a caller's cap.
+pub const HARD_TRIANGLE_CAP: u64 = 250_000_000;

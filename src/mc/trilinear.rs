@@ -1,0 +1,393 @@
+//! Triangulating a cell with the topology of its trilinear interpolant.
+//!
+//! Instead of the 33 hand-made configurations of Marching Cubes 33, the
+//! topology is derived from the function itself, in four steps. Write
+//! `P = {F >= iso}` and `N = {F < iso}` inside the cell.
+//!
+//! 1. **Faces.** On a face `F` is bilinear; an ambiguous face (diagonal
+//!    corners agree, adjacent ones differ) joins its inside corners iff its
+//!    saddle value is `>= iso` (the asymptotic decider). With `f = s - iso`
+//!    and inside diagonal `(p, q)`, outside diagonal `(m, n)`, that is
+//!    `f_p f_q >= f_m f_n`: products of the same two numbers, so both cells
+//!    sharing the face decide identically. Each face then contributes 0, 1
+//!    or 2 segments between its edge crossings; chained, they form closed
+//!    *loops* on the cell's boundary.
+//! 2. **Regions on the boundary.** A union-find over the 8 corners joins
+//!    corners along edges of one sign and across ambiguous faces as decided
+//!    in step 1: each class is one region of `P` or `N` on the boundary.
+//! 3. **Connections through the interior.** A trilinear function has no
+//!    interior extremum, so every component of `P` (or `N`) reaches the
+//!    boundary, and within every slice `z = t` every component of the
+//!    bilinear slice function reaches the slice's border. Sweeping `t` from
+//!    0 to 1, two boundary regions are joined through the interior exactly
+//!    when some slice joins them. A slice joins regions not already joined
+//!    on the boundary only when it is ambiguous, and its connectivity can
+//!    change only where a vertical edge crosses `iso` or where its saddle
+//!    value equals `iso` (the roots of a quadratic in `t`, which are the
+//!    heights of the body saddles, Natarajan's criterion). One slice
+//!    between consecutive events therefore tells everything.
+//! 4. **Surface components.** In a ball, each surface component separates
+//!    one region of `P` from one region of `N`, and two regions share at
+//!    most one component. So loops whose (P region, N region) pair is the
+//!    same bound the same component: one loop is a disk (a fan), two loops
+//!    are a tube (the tunnels of MC33 cases 4, 6, 7, 10, 12 and 13), which
+//!    is stitched between the two loops. Three or more loops cannot occur
+//!    for a trilinear function except in degenerate data; each is then
+//!    closed as a disk.
+//!
+//! Loops are oriented so that fans wind like `vtkMarchingCubes` (normals
+//! towards lower values); the tube is stitched with the same orientation.
+
+use crate::tables::cube::{face_is_ambiguous, CORNERS, EDGES, FACES, FACE_EDGES};
+
+struct UnionFind([u8; 8]);
+
+impl UnionFind {
+    fn new() -> Self {
+        UnionFind([0, 1, 2, 3, 4, 5, 6, 7])
+    }
+    fn find(&mut self, mut a: u8) -> u8 {
+        while self.0[a as usize] != a {
+            let p = self.0[a as usize];
+            self.0[a as usize] = self.0[p as usize];
+            a = p;
+        }
+        a
+    }
+    fn union(&mut self, a: u8, b: u8) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            // Keep the smaller root: deterministic classes.
+            let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+            self.0[hi as usize] = lo;
+        }
+    }
+}
+
+fn edge_midpoint(e: u8) -> [f64; 3] {
+    let [a, b] = EDGES[e as usize];
+    let (pa, pb) = (CORNERS[a as usize], CORNERS[b as usize]);
+    [
+        (pa[0] + pb[0]) as f64 * 0.5,
+        (pa[1] + pb[1]) as f64 * 0.5,
+        (pa[2] + pb[2]) as f64 * 0.5,
+    ]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let d = sub(a, b);
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+/// Position of the crossing on edge `e` in local coordinates.
+fn crossing(f: &[f64; 8], e: u8) -> [f64; 3] {
+    let [a, b] = EDGES[e as usize];
+    let (fa, fb) = (f[a as usize], f[b as usize]);
+    let t = if fb != fa { -fa / (fb - fa) } else { 0.5 };
+    let (pa, pb) = (CORNERS[a as usize], CORNERS[b as usize]);
+    let mut p = [0.0; 3];
+    for k in 0..3 {
+        p[k] = pa[k] as f64 + t * (pb[k] as f64 - pa[k] as f64);
+    }
+    p
+}
+
+/// Whether the bilinear function with corner values `g` (cyclic order,
+/// alternating signs) joins its inside corners.
+#[inline]
+fn joins_inside(g: [f64; 4]) -> bool {
+    if g[0] >= 0.0 {
+        g[0] * g[2] >= g[1] * g[3]
+    } else {
+        g[1] * g[3] >= g[0] * g[2]
+    }
+}
+
+/// Per-face result of the asymptotic decider: `Some(true)` when an
+/// ambiguous face joins its inside corners, `Some(false)` when it joins
+/// its outside corners, `None` for unambiguous faces.
+pub fn face_decisions(f: &[f64; 8]) -> [Option<bool>; 6] {
+    let case = super::case_index(f);
+    let mut out = [None; 6];
+    for (k, (_, _, c)) in FACES.iter().enumerate() {
+        if face_is_ambiguous(case, k) {
+            let g = [
+                f[c[0] as usize],
+                f[c[1] as usize],
+                f[c[2] as usize],
+                f[c[3] as usize],
+            ];
+            out[k] = Some(joins_inside(g));
+        }
+    }
+    out
+}
+
+/// Boundary loops of the cell's isosurface, as cyclic lists of edges,
+/// oriented like `vtkMarchingCubes`'s triangles.
+pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
+    let inside = |c: u8| f[c as usize] >= 0.0;
+    let mut next = [u8::MAX; 12];
+    for (k, (axis, val, c)) in FACES.iter().enumerate() {
+        let mut normal = [0.0; 3];
+        normal[*axis as usize] = if *val == 0 { -1.0 } else { 1.0 };
+        let fe = FACE_EDGES[k];
+        let crossed: Vec<usize> = (0..4).filter(|&i| inside(c[i]) != inside(c[(i + 1) % 4])).collect();
+        let mut segments: Vec<(u8, u8, [f64; 3])> = Vec::with_capacity(2);
+        match crossed.len() {
+            2 => {
+                let mut r = [0.0; 3];
+                let mut n = 0.0;
+                for &cc in c {
+                    if inside(cc) {
+                        let p = CORNERS[cc as usize];
+                        for a in 0..3 {
+                            r[a] += p[a] as f64;
+                        }
+                        n += 1.0;
+                    }
+                }
+                for v in &mut r {
+                    *v /= n;
+                }
+                segments.push((fe[crossed[0]], fe[crossed[1]], r));
+            }
+            4 => {
+                let join_in = decisions[k].unwrap_or(true);
+                let mut centre = [0.0; 3];
+                for &cc in c {
+                    let p = CORNERS[cc as usize];
+                    for a in 0..3 {
+                        centre[a] += p[a] as f64 * 0.25;
+                    }
+                }
+                for i in 0..4 {
+                    // Cut off corner i when it is on the side that is not joined.
+                    if inside(c[i]) != join_in {
+                        let ea = fe[(i + 3) % 4];
+                        let eb = fe[i];
+                        let r = if join_in {
+                            centre
+                        } else {
+                            let p = CORNERS[c[i] as usize];
+                            [p[0] as f64, p[1] as f64, p[2] as f64]
+                        };
+                        segments.push((ea, eb, r));
+                    }
+                }
+            }
+            _ => {}
+        }
+        for (ea, eb, r) in segments {
+            let (ma, mb) = (edge_midpoint(ea), edge_midpoint(eb));
+            let cr = cross(sub(mb, ma), sub(r, ma));
+            let d = normal[0] * cr[0] + normal[1] * cr[1] + normal[2] * cr[2];
+            // Inside on the right seen from outside: the winding of VTK.
+            if d < 0.0 {
+                next[ea as usize] = eb;
+            } else {
+                next[eb as usize] = ea;
+            }
+        }
+    }
+    let mut seen = [false; 12];
+    let mut out = Vec::new();
+    for start in 0..12u8 {
+        if next[start as usize] == u8::MAX || seen[start as usize] {
+            continue;
+        }
+        let mut l = Vec::new();
+        let mut e = start;
+        while !seen[e as usize] && e != u8::MAX {
+            seen[e as usize] = true;
+            l.push(e);
+            e = next[e as usize];
+        }
+        if l.len() >= 3 {
+            out.push(l);
+        }
+    }
+    out
+}
+
+/// Union-find classes of corners: regions of `P` and `N` joined on the
+/// boundary and through the interior (steps 2 and 3).
+fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
+    let inside = |c: usize| f[c] >= 0.0;
+    let mut uf = UnionFind::new();
+    for [a, b] in EDGES {
+        if inside(a as usize) == inside(b as usize) {
+            uf.union(a, b);
+        }
+    }
+    for (k, (_, _, c)) in FACES.iter().enumerate() {
+        if let Some(join_in) = decisions[k] {
+            let (d0, d1) = ((c[0], c[2]), (c[1], c[3]));
+            let in_diag = if inside(c[0] as usize) { d0 } else { d1 };
+            let out_diag = if inside(c[0] as usize) { d1 } else { d0 };
+            let (a, b) = if join_in { in_diag } else { out_diag };
+            uf.union(a, b);
+        }
+    }
+    // Sweep z: slice corner j (cyclic 0..4) runs from corner j to j + 4.
+    let a = [f[0], f[1], f[2], f[3]];
+    let b = [f[4] - f[0], f[5] - f[1], f[6] - f[2], f[7] - f[3]];
+    let mut events: Vec<f64> = vec![0.0, 1.0];
+    for j in 0..4 {
+        if (f[j] >= 0.0) != (f[j + 4] >= 0.0) {
+            events.push(f[j] / (f[j] - f[j + 4]));
+        }
+    }
+    let qa = b[0] * b[2] - b[1] * b[3];
+    let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
+    let qc = a[0] * a[2] - a[1] * a[3];
+    for r in quadratic_roots(qa, qb, qc) {
+        if r > 0.0 && r < 1.0 {
+            events.push(r);
+        }
+    }
+    events.sort_by(|x, y| x.total_cmp(y));
+    for w in events.windows(2) {
+        if w[1] <= w[0] {
+            continue;
+        }
+        let t = 0.5 * (w[0] + w[1]);
+        let g = [
+            (1.0 - t) * f[0] + t * f[4],
+            (1.0 - t) * f[1] + t * f[5],
+            (1.0 - t) * f[2] + t * f[6],
+            (1.0 - t) * f[3] + t * f[7],
+        ];
+        let s = [g[0] >= 0.0, g[1] >= 0.0, g[2] >= 0.0, g[3] >= 0.0];
+        if !(s[0] == s[2] && s[1] == s[3] && s[0] != s[1]) {
+            continue;
+        }
+        let join_in = joins_inside(g);
+        let (p, q) = if s[0] == join_in { (0usize, 2usize) } else { (1, 3) };
+        // The slice point on vertical edge j joins, along that edge, the
+        // end of the same sign.
+        let end = |j: usize| -> u8 {
+            if (f[j] >= 0.0) == join_in {
+                j as u8
+            } else {
+                (j + 4) as u8
+            }
+        };
+        uf.union(end(p), end(q));
+    }
+    uf
+}
+
+/// Real roots of `a t^2 + b t + c` (any that exist; degenerate cases give
+/// the linear root or none).
+fn quadratic_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
+    let scale = a.abs().max(b.abs()).max(c.abs());
+    if scale == 0.0 || !scale.is_finite() {
+        return Vec::new();
+    }
+    if a.abs() <= 1e-14 * scale {
+        return if b != 0.0 { vec![-c / b] } else { Vec::new() };
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return Vec::new();
+    }
+    let s = disc.sqrt();
+    // Numerically stable pair.
+    let q = -0.5 * (b + b.signum() * s);
+    let mut r = vec![q / a];
+    if q != 0.0 {
+        r.push(c / q);
+    }
+    r
+}
+
+/// Appends the triangles of an ambiguous cell (see the module docs).
+pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>) {
+    let decisions = face_decisions(f);
+    let loops = loops(f, &decisions);
+    if loops.is_empty() {
+        return;
+    }
+    let mut uf = regions(f, &decisions);
+    // Group loops by (inside region, outside region).
+    let mut keys: Vec<(u8, u8)> = Vec::with_capacity(loops.len());
+    for l in &loops {
+        let [a, b] = EDGES[l[0] as usize];
+        let (i, o) = if f[a as usize] >= 0.0 { (a, b) } else { (b, a) };
+        keys.push((uf.find(i), uf.find(o)));
+    }
+    let mut done = vec![false; loops.len()];
+    for i in 0..loops.len() {
+        if done[i] {
+            continue;
+        }
+        let group: Vec<usize> = (i..loops.len()).filter(|&j| keys[j] == keys[i]).collect();
+        for &j in &group {
+            done[j] = true;
+        }
+        if group.len() == 2 {
+            stitch(f, &loops[group[0]], &loops[group[1]], out);
+        } else {
+            for &j in &group {
+                fan(&loops[j], out);
+            }
+        }
+    }
+}
+
+fn fan(l: &[u8], out: &mut Vec<[u8; 3]>) {
+    for k in 1..l.len() - 1 {
+        out.push([l[0], l[k], l[k + 1]]);
+    }
+}
+
+/// A tube between two loops: walk `a` forwards and `b` backwards, always
+/// taking the shorter new diagonal.
+fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
+    let pa: Vec<[f64; 3]> = a.iter().map(|&e| crossing(f, e)).collect();
+    let pb: Vec<[f64; 3]> = b.iter().map(|&e| crossing(f, e)).collect();
+    let (m, n) = (a.len(), b.len());
+    // Start at the closest pair.
+    let mut best = (f64::INFINITY, 0usize);
+    for (j, q) in pb.iter().enumerate() {
+        let d = dist2(pa[0], *q);
+        if d < best.0 {
+            best = (d, j);
+        }
+    }
+    let (mut i, mut j) = (0usize, best.1);
+    let (mut da, mut db) = (0usize, 0usize);
+    while da < m || db < n {
+        let i1 = (i + 1) % m;
+        let j1 = (j + n - 1) % n;
+        let advance_a = if da == m {
+            false
+        } else if db == n {
+            true
+        } else {
+            dist2(pa[i1], pb[j]) <= dist2(pa[i], pb[j1])
+        };
+        if advance_a {
+            out.push([a[i], a[i1], b[j]]);
+            i = i1;
+            da += 1;
+        } else {
+            out.push([b[j], a[i], b[j1]]);
+            j = j1;
+            db += 1;
+        }
+    }
+}

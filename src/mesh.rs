@@ -1,0 +1,69 @@
+//! The output: a welded triangle mesh with per-triangle levels and statistics.
+
+/// Counters and timings of one extraction.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stats {
+    /// Cells in the volume.
+    pub cells: u64,
+    /// Triangles produced by Marching Cubes, before refinement.
+    pub mc_triangles: u64,
+    /// Triangles in the output.
+    pub output_triangles: u64,
+    /// Points in the output.
+    pub output_points: u64,
+    /// Cells whose topology was decided by the trilinear test (ambiguous
+    /// faces or body-diagonal cases); 0 in `Classic` mode.
+    pub ambiguous_cells: u64,
+    /// Cells skipped because a corner sample is NaN or infinite.
+    pub skipped_nonfinite_cells: u64,
+    /// Highest refinement level of an output triangle (the paper's maxL).
+    pub max_level: u32,
+    /// Mean refinement level over output triangles (the paper's meanL).
+    pub mean_level: f64,
+    /// Sample points tested against the ideal surface.
+    pub samples_evaluated: u64,
+    /// Sample points that were inserted as split points.
+    pub split_points: u64,
+    /// Sample points for which no point of the ideal surface was found
+    /// along the gradient line inside the cell (not split).
+    pub projection_failures: u64,
+    /// Output triangles at the maximum level that still had a sample point
+    /// farther than epsilon.
+    pub faces_above_epsilon: u64,
+    /// Whether the triangle cap stopped refinement below `max_level`.
+    pub budget_reached: bool,
+    /// The refinement level actually used (below `max_level` when the cap
+    /// was reached).
+    pub effective_max_level: u32,
+    /// Wall time spent in Marching Cubes, seconds.
+    pub time_mc: f64,
+    /// Wall time spent in refinement, seconds.
+    pub time_refine: f64,
+    /// Wall time spent welding and assembling the output, seconds.
+    pub time_assemble: f64,
+    /// Wall time spent on normals, seconds.
+    pub time_normals: f64,
+    /// Total wall time, seconds.
+    pub time_total: f64,
+}
+
+/// A welded, consistently oriented triangle mesh.
+///
+/// Normals of triangles `(p1 - p0) x (p2 - p0)` point towards lower values,
+/// as in `vtkMarchingCubes`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    /// Point positions in world coordinates.
+    pub points: Vec<[f64; 3]>,
+    /// The same points in continuous global index space (for interpolating
+    /// other point arrays trilinearly).
+    pub index_points: Vec<[f64; 3]>,
+    /// Three point indices per triangle.
+    pub triangles: Vec<[u64; 3]>,
+    /// Unit normals per point (empty when not requested).
+    pub normals: Vec<[f32; 3]>,
+    /// Refinement level per triangle (0 = Marching Cubes triangle).
+    pub levels: Vec<u8>,
+    /// Statistics of the extraction.
+    pub stats: Stats,
+}

@@ -1,0 +1,99 @@
+//! Point normals: exact trilinear gradients or VTK-style central differences.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::filter::{trilinear_gradient, Trilinear};
+use crate::options::NormalMode;
+use crate::volume::{Scalar, Volume};
+
+/// The cell holding global index point `p`, clamped to the volume, and the
+/// local coordinates of `p` in it.
+fn locate(p: DVec3, dims: [usize; 3], off: [i64; 3]) -> ([usize; 3], DVec3) {
+    let mut c = [0usize; 3];
+    let mut l = DVec3::ZERO;
+    for a in 0..3 {
+        let rel = p[a] - off[a] as f64;
+        let i = (rel.floor().max(0.0) as usize).min(dims[a] - 2);
+        c[a] = i;
+        l[a] = rel - i as f64;
+    }
+    (c, l)
+}
+
+fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
+    // Index-space gradient to world space, negated: towards lower values.
+    let w = DVec3::new(-g.x / spacing[0], -g.y / spacing[1], -g.z / spacing[2]);
+    let len = w.length();
+    if len > 0.0 && len.is_finite() {
+        let n = w / len;
+        [n.x as f32, n.y as f32, n.z as f32]
+    } else {
+        [0.0, 0.0, 0.0]
+    }
+}
+
+/// Normals for `index_points` (empty for [`NormalMode::None`]).
+pub(crate) fn compute_normals<T: Scalar>(
+    filter: &Trilinear<'_, T>,
+    volume: &Volume<'_>,
+    index_points: &[[f64; 3]],
+    mode: NormalMode,
+    pool: &rayon::ThreadPool,
+) -> Vec<[f32; 3]> {
+    let g = &filter.grid;
+    let dims = g.dims;
+    let off = g.index_offset;
+    let spacing = volume.spacing;
+    match mode {
+        NormalMode::None => Vec::new(),
+        NormalMode::Gradient => pool.install(|| {
+            index_points
+                .par_iter()
+                .map(|p| {
+                    let (c, l) = locate(DVec3::from_array(*p), dims, off);
+                    let v = filter.corners(c);
+                    finish(trilinear_gradient(&v, l), spacing)
+                })
+                .collect()
+        }),
+        NormalMode::CentralDifference => pool.install(|| {
+            let grad = |i: usize, j: usize, k: usize| -> DVec3 {
+                let idx = [i, j, k];
+                let mut out = DVec3::ZERO;
+                for a in 0..3 {
+                    let mut lo = idx;
+                    let mut hi = idx;
+                    let mut h = 2.0;
+                    if idx[a] == 0 {
+                        hi[a] += 1;
+                        h = 1.0;
+                    } else if idx[a] == dims[a] - 1 {
+                        lo[a] -= 1;
+                        h = 1.0;
+                    } else {
+                        lo[a] -= 1;
+                        hi[a] += 1;
+                    }
+                    out[a] = (g.get(hi[0], hi[1], hi[2]) - g.get(lo[0], lo[1], lo[2])) / h;
+                }
+                out
+            };
+            index_points
+                .par_iter()
+                .map(|p| {
+                    let (c, l) = locate(DVec3::from_array(*p), dims, off);
+                    let mut n = DVec3::ZERO;
+                    for (q, cc) in crate::tables::cube::CORNERS.iter().enumerate() {
+                        let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
+                            * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
+                            * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
+                        let _ = q;
+                        n += grad(c[0] + cc[0] as usize, c[1] + cc[1] as usize, c[2] + cc[2] as usize) * w;
+                    }
+                    finish(n, spacing)
+                })
+                .collect()
+        }),
+    }
+}

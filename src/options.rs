@@ -1,0 +1,103 @@
+//! Extraction options: topology mode, refinement rule and limits.
+
+/// How ambiguous cells are triangulated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Topology {
+    /// Inside every cell the mesh has the topology of the isosurface of the
+    /// trilinear interpolant (asymptotic decider on faces, interior
+    /// connectivity from the exact trilinear function, tunnels included).
+    /// Cells without ambiguity use the same triangles as `Classic`.
+    #[default]
+    Trilinear,
+    /// The case table of `vtkMarchingCubes`: with refinement off the output
+    /// is the surface `vtkMarchingCubes` produces.
+    Classic,
+}
+
+/// Where a triangle is sampled to decide whether to split it
+/// (section 3.1 of the paper).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Rule {
+    /// Edge midpoints only: 1-, 2- or 3-edge splits.
+    A,
+    /// Rule A, then the centroid in a second phase when no edge splits.
+    #[default]
+    A1,
+    /// Rule A, then always a fourth point in a second phase: the centroid
+    /// moved by the mean displacement of the edge points that were
+    /// relocated onto the surface (our reading of the paper's Fig. 5).
+    A2,
+    /// The three midpoints and the centroid, all tested at once.
+    B,
+}
+
+/// Which normals to compute for the output points.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum NormalMode {
+    /// No normals.
+    #[default]
+    None,
+    /// The exact gradient of the trilinear interpolant at the point
+    /// (negated and normalised, in world space).
+    Gradient,
+    /// Like VTK: central-difference gradients at the grid points (one-sided
+    /// at the border), interpolated trilinearly to the point, negated and
+    /// normalised.
+    CentralDifference,
+}
+
+/// Options of one extraction. `Options::default()` gives the documented
+/// defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Largest allowed distance, in cell-edge units of index space, between
+    /// a tested sample point and the ideal surface. Default 0.01.
+    /// `0` turns refinement off (plain Marching Cubes).
+    pub epsilon: f64,
+    /// Maximum refinement level (0 = plain Marching Cubes). Default 5, at
+    /// most [`crate::MAX_LEVEL_LIMIT`].
+    pub max_level: u32,
+    /// Refinement rule. Default [`Rule::A1`].
+    pub rule: Rule,
+    /// Topology mode. Default [`Topology::Trilinear`].
+    pub topology: Topology,
+    /// Normals to compute. Default [`NormalMode::None`].
+    pub normals: NormalMode,
+    /// Cap on output triangles; 0 = no cap of the caller's (the internal
+    /// safety cap [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
+    pub max_triangles: u64,
+    /// Worker threads; 0 = all cores. Default 0. The output does not depend
+    /// on it.
+    pub threads: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            epsilon: 0.01,
+            max_level: 5,
+            rule: Rule::A1,
+            topology: Topology::Trilinear,
+            normals: NormalMode::None,
+            max_triangles: 0,
+            threads: 0,
+        }
+    }
+}
+
+impl Options {
+    /// Options for plain Marching Cubes (refinement off) in the given mode.
+    pub fn marching_cubes(topology: Topology) -> Self {
+        Options {
+            epsilon: 0.0,
+            max_level: 0,
+            topology,
+            ..Options::default()
+        }
+    }
+
+    /// Whether these options refine at all.
+    pub fn refines(&self) -> bool {
+        self.epsilon > 0.0 && self.max_level > 0
+    }
+}

@@ -1,0 +1,236 @@
+//! Finding the point `p'` of the ideal surface `S_K` that corresponds to a
+//! sample point `p` (section 3.2 of the paper).
+//!
+//! The paper walks along the gradient line through `p` in small steps. For
+//! the trilinear filter the restriction of `F` to a line inside one cell is
+//! a cubic polynomial, so we can do better and find the root nearest to
+//! `p` exactly: the cubic is recovered from four evaluations spread over
+//! the part of the line inside the cell, its critical points split that
+//! part into monotone pieces, and the nearest piece with a sign change is
+//! solved on the true function by a safeguarded Illinois (regula falsi)
+//! iteration. Only evaluations of the filter are used, so the answer is a
+//! pure function of `p` and the direction: on a face shared by two cells
+//! both cells compute the same bits. The search never leaves the cell (so
+//! the refined surface stays inside the cell of its Marching Cubes
+//! triangle and cannot cross a neighbour's) and is reported as a failure
+//! when the line meets no root there.
+
+use glam::DVec3;
+
+use crate::filter::ReconstructionFilter;
+
+/// Result of projecting a point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// The point on `S_K`, in local cell coordinates.
+    pub point: DVec3,
+    /// Its distance to the sample point, in cell (index) units.
+    pub distance: f64,
+}
+
+/// Parameter interval of the line `p + t d` inside `[0, 1]^3`.
+fn clip_to_cell(p: DVec3, d: DVec3) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    for a in 0..3 {
+        if d[a] != 0.0 {
+            let t0 = (0.0 - p[a]) / d[a];
+            let t1 = (1.0 - p[a]) / d[a];
+            lo = lo.max(t0.min(t1));
+            hi = hi.min(t0.max(t1));
+        } else if p[a] < 0.0 || p[a] > 1.0 {
+            return None;
+        }
+    }
+    if lo.is_finite() && hi.is_finite() && lo <= hi {
+        Some((lo.min(0.0), hi.max(0.0)))
+    } else {
+        None
+    }
+}
+
+/// Projects `p` (local coordinates of a cell) onto `F = iso` along the
+/// gradient line, restricted to the axes not set in `fixed` (bit `a` set:
+/// the coordinate `a` is held, as for points on a cell face). Returns
+/// `None` when the gradient vanishes or the line has no root in the cell.
+pub fn project<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    fixed: u8,
+) -> Option<Projection> {
+    let mut g = F::gradient(cell, p);
+    for a in 0..3 {
+        if fixed & (1 << a) != 0 {
+            g[a] = 0.0;
+        }
+    }
+    let len = g.length();
+    if !(len > 0.0 && len.is_finite()) {
+        return None;
+    }
+    let d = g / len;
+    let (lo, hi) = clip_to_cell(p, d)?;
+    let q = |t: f64| F::value(cell, p + d * t) - iso;
+    let q0 = q(0.0);
+    if q0 == 0.0 {
+        return Some(Projection {
+            point: p,
+            distance: 0.0,
+        });
+    }
+    // Cubic through four evaluations (Newton form on s in [0, 1]).
+    let w = hi - lo;
+    if w <= 0.0 {
+        return None;
+    }
+    let y = [q(lo), q(lo + w / 3.0), q(lo + 2.0 * w / 3.0), q(hi)];
+    // Divided differences with nodes 0, 1/3, 2/3, 1.
+    let d1 = [(y[1] - y[0]) * 3.0, (y[2] - y[1]) * 3.0, (y[3] - y[2]) * 3.0];
+    let d2 = [(d1[1] - d1[0]) * 1.5, (d1[2] - d1[1]) * 1.5];
+    let d3 = d2[1] - d2[0];
+    // Monomial coefficients of c0 + c1 s + c2 s^2 + c3 s^3.
+    // N(s) = y0 + d1_0 s + d2_0 s (s - 1/3) + d3 s (s - 1/3)(s - 2/3)
+    let c3 = d3;
+    let c2 = d2[0] - d3;
+    let c1 = d1[0] - d2[0] / 3.0 + d3 * (2.0 / 9.0);
+    // Critical points of the cubic split [0, 1] into monotone pieces.
+    let mut cuts = vec![0.0, 1.0];
+    let (a, b, c) = (3.0 * c3, 2.0 * c2, c1);
+    let scale = a.abs().max(b.abs()).max(c.abs());
+    if scale > 0.0 {
+        if a.abs() > 1e-12 * scale {
+            let disc = b * b - 4.0 * a * c;
+            if disc >= 0.0 {
+                let s = disc.sqrt();
+                let qq = -0.5 * (b + if b < 0.0 { -s } else { s });
+                for r in [qq / a, if qq != 0.0 { c / qq } else { f64::NAN }] {
+                    if r > 0.0 && r < 1.0 {
+                        cuts.push(r);
+                    }
+                }
+            }
+        } else if b != 0.0 {
+            let r = -c / b;
+            if r > 0.0 && r < 1.0 {
+                cuts.push(r);
+            }
+        }
+    }
+    // The point p itself (t = 0) is a cut too, so pieces lie on one side.
+    let s0 = -lo / w;
+    if s0 > 0.0 && s0 < 1.0 {
+        cuts.push(s0);
+    }
+    cuts.sort_by(|x, y| x.total_cmp(y));
+    cuts.dedup();
+    // Pieces ordered by their distance from t = 0.
+    let mut pieces: Vec<(f64, f64, f64)> = cuts
+        .windows(2)
+        .map(|wnd| {
+            let (ta, tb) = (lo + wnd[0] * w, lo + wnd[1] * w);
+            let near = if ta <= 0.0 && tb >= 0.0 { 0.0 } else { ta.abs().min(tb.abs()) };
+            (near, ta, tb)
+        })
+        .collect();
+    pieces.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
+    let mut best: Option<f64> = None;
+    for (near, ta, tb) in pieces {
+        if let Some(bt) = best {
+            if near >= bt.abs() {
+                break;
+            }
+        }
+        let (qa, qb) = (if ta == 0.0 { q0 } else { q(ta) }, if tb == 0.0 { q0 } else { q(tb) });
+        if qa == 0.0 || qb == 0.0 || (qa < 0.0) != (qb < 0.0) {
+            let t = solve(&q, ta, qa, tb, qb);
+            if best.map_or(true, |bt| t.abs() < bt.abs()) {
+                best = Some(t);
+            }
+        }
+    }
+    let t = best?;
+    let point = p + d * t;
+    Some(Projection {
+        point,
+        distance: t.abs(),
+    })
+}
+
+/// Root of `q` in `[a, b]` with `q(a)`, `q(b)` of opposite signs (or zero):
+/// Illinois iteration, falling back to bisection when it stalls.
+fn solve(q: &impl Fn(f64) -> f64, mut a: f64, mut qa: f64, mut b: f64, mut qb: f64) -> f64 {
+    if qa == 0.0 {
+        return a;
+    }
+    if qb == 0.0 {
+        return b;
+    }
+    let mut side = 0i8;
+    for it in 0..200 {
+        let width = (b - a).abs();
+        if width <= 1e-15 * (1.0 + a.abs().max(b.abs())) {
+            break;
+        }
+        let mut t = (a * qb - b * qa) / (qb - qa);
+        if !(t > a.min(b) && t < a.max(b)) || it % 8 == 7 {
+            t = 0.5 * (a + b);
+        }
+        let qt = q(t);
+        if qt == 0.0 {
+            return t;
+        }
+        if (qt < 0.0) == (qb < 0.0) {
+            b = t;
+            qb = qt;
+            if side == -1 {
+                qa *= 0.5;
+            }
+            side = -1;
+        } else {
+            a = t;
+            qa = qt;
+            if side == 1 {
+                qb *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    if qa.abs() <= qb.abs() {
+        a
+    } else {
+        b
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::{trilinear_value, Trilinear};
+    use crate::volume::Grid;
+
+    type Tri = Trilinear<'static, f64>;
+
+    #[test]
+    fn lands_on_the_surface_within_the_cell() {
+        let c = [-1.0, 0.5, 2.0, 0.2, 0.3, 1.5, -0.4, 0.9];
+        for &(x, y, z) in &[(0.2, 0.2, 0.2), (0.5, 0.5, 0.5), (0.8, 0.1, 0.6)] {
+            let p = DVec3::new(x, y, z);
+            if let Some(pr) = project::<Tri>(&c, 0.1, p, 0) {
+                let v = trilinear_value(&c, pr.point);
+                assert!((v - 0.1).abs() < 1e-12, "{v}");
+                assert!(pr.point.min_element() >= 0.0 && pr.point.max_element() <= 1.0);
+                assert!((pr.point - p).length() - pr.distance < 1e-12);
+            }
+        }
+        let _ = Grid::<f64>::new; // keep the type in scope for the alias
+    }
+
+    #[test]
+    fn face_points_stay_on_the_face() {
+        let c = [-1.0, 0.5, 2.0, 0.2, 0.3, 1.5, -0.4, 0.9];
+        let p = DVec3::new(0.0, 0.4, 0.5);
+        let pr = project::<Tri>(&c, 0.1, p, 1).unwrap();
+        assert_eq!(pr.point.x, 0.0);
+        assert!((trilinear_value(&c, pr.point) - 0.1).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,256 @@
+//! Adaptive refinement of one cell's Marching Cubes triangles (section 3.1).
+//!
+//! Crack-freeness without a shared hash table: whether an edge splits, and
+//! where its split point goes, is a pure function of the edge's two
+//! endpoints (the midpoint `(a + b) / 2` is symmetric in IEEE arithmetic)
+//! and of its *fixed axes*: an edge on a cell face (a boundary edge of the
+//! cell's patch) is projected within that face, using only values that the
+//! two cells sharing the face compute bit-identically (see
+//! [`crate::filter`]). Both triangles on either side of an edge therefore
+//! make the same decision and create the same point. Edges created by a
+//! split at level `l` are tested only by triangles of level `l`, on both
+//! sides, so the level cap cuts both sides alike and no T-junction appears.
+
+use glam::DVec3;
+
+use crate::filter::ReconstructionFilter;
+use crate::options::Rule;
+use crate::project::project;
+
+/// Refinement settings and counters for one worker.
+pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
+    pub cell: &'c F::Cell,
+    pub iso: f64,
+    pub epsilon: f64,
+    pub max_level: u32,
+    pub rule: Rule,
+    pub counters: &'c mut Counters,
+    /// When set, only count triangles per level (no output).
+    pub stack: &'c mut Vec<Tri>,
+}
+
+/// Refinement statistics, summed over cells.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Counters {
+    pub samples: u64,
+    pub splits: u64,
+    pub failures: u64,
+    pub above_eps: u64,
+    /// Output triangles per level.
+    pub per_level: [u64; 16],
+    /// Nodes of the refinement trees per level (for the triangle cap).
+    pub nodes_per_level: [u64; 16],
+}
+
+/// A triangle being refined: vertex ids, local positions, fixed-axis mask
+/// of each edge (edge `e` joins vertices `e` and `e + 1`), level.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tri {
+    pub v: [u32; 3],
+    pub p: [DVec3; 3],
+    pub fixed: [u8; 3],
+    pub level: u8,
+}
+
+/// Fixed axes shared by two points: those where both have the same
+/// coordinate 0 or 1 (they lie on the same cell face or edge).
+pub(crate) fn shared_fixed_axes(a: DVec3, b: DVec3) -> u8 {
+    let mut m = 0;
+    for k in 0..3 {
+        if a[k] == b[k] && (a[k] == 0.0 || a[k] == 1.0) {
+            m |= 1 << k;
+        }
+    }
+    m
+}
+
+#[derive(Clone, Copy)]
+enum Slot {
+    V(usize),
+    M(usize),
+    C,
+}
+
+impl<F: ReconstructionFilter> Refiner<'_, F> {
+    /// Tests one sample point; returns the relocated point if it must split.
+    fn test(&mut self, p: DVec3, fixed: u8) -> Option<DVec3> {
+        self.counters.samples += 1;
+        match project::<F>(self.cell, self.iso, p, fixed) {
+            None => {
+                self.counters.failures += 1;
+                None
+            }
+            Some(pr) if pr.distance > self.epsilon => Some(pr.point),
+            Some(_) => None,
+        }
+    }
+
+    /// Whether any sample of `t` is above epsilon (for the statistics at the
+    /// maximum level).
+    fn above(&mut self, t: &Tri) -> bool {
+        for e in 0..3 {
+            let m = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
+            if let Some(pr) = project::<F>(self.cell, self.iso, m, t.fixed[e]) {
+                if pr.distance > self.epsilon {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Refines `root`; `emit(tri)` receives output triangles in a fixed
+    /// order, `vertex(p)` returns the id of a new point (local coordinates).
+    pub fn run(
+        &mut self,
+        root: Tri,
+        count_above: bool,
+        emit: &mut impl FnMut(&Tri),
+        vertex: &mut impl FnMut(DVec3) -> u32,
+    ) {
+        self.stack.clear();
+        self.stack.push(root);
+        while let Some(t) = self.stack.pop() {
+            let lvl = t.level as usize;
+            self.counters.nodes_per_level[lvl.min(15)] += 1;
+            if t.level as u32 >= self.max_level {
+                if count_above && self.above(&t) {
+                    self.counters.above_eps += 1;
+                }
+                self.counters.per_level[lvl.min(15)] += 1;
+                emit(&t);
+                continue;
+            }
+            let mut mids: [Option<DVec3>; 3] = [None; 3];
+            let mut midpoint = [DVec3::ZERO; 3];
+            for e in 0..3 {
+                midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
+                mids[e] = self.test(midpoint[e], t.fixed[e]);
+            }
+            let nsplit = mids.iter().filter(|m| m.is_some()).count();
+            let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+            let centre = match self.rule {
+                Rule::A => None,
+                Rule::A1 => {
+                    if nsplit == 0 {
+                        self.test(centroid, 0)
+                    } else {
+                        None
+                    }
+                }
+                Rule::B => self.test(centroid, 0),
+                Rule::A2 => {
+                    let mut shift = DVec3::ZERO;
+                    for e in 0..3 {
+                        if let Some(q) = mids[e] {
+                            shift += q - midpoint[e];
+                        }
+                    }
+                    if nsplit > 0 {
+                        shift /= nsplit as f64;
+                    }
+                    let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
+                    self.test(cand, 0)
+                }
+            };
+            if nsplit == 0 && centre.is_none() {
+                self.counters.per_level[lvl.min(15)] += 1;
+                emit(&t);
+                continue;
+            }
+            self.counters.splits += nsplit as u64 + centre.is_some() as u64;
+            // Ids and positions of the new points.
+            let mut mid_id = [u32::MAX; 3];
+            let mut mid_p = [DVec3::ZERO; 3];
+            for e in 0..3 {
+                if let Some(q) = mids[e] {
+                    mid_p[e] = q;
+                    mid_id[e] = vertex(q);
+                }
+            }
+            let centre_data = centre.map(|c| (vertex(c), c));
+            let slot = |s: Slot| -> (u32, DVec3) {
+                match s {
+                    Slot::V(i) => (t.v[i], t.p[i]),
+                    Slot::M(e) => (mid_id[e], mid_p[e]),
+                    Slot::C => centre_data.unwrap(),
+                }
+            };
+            // Fixed mask of a child edge: the parent edge's when both ends
+            // lie on it, none for new interior edges.
+            let on_edge = |s: Slot, e: usize| -> bool {
+                match s {
+                    Slot::V(i) => i == e || i == (e + 1) % 3,
+                    Slot::M(m) => m == e,
+                    Slot::C => false,
+                }
+            };
+            let mask = |a: Slot, b: Slot| -> u8 {
+                for e in 0..3 {
+                    if on_edge(a, e) && on_edge(b, e) {
+                        return t.fixed[e];
+                    }
+                }
+                0
+            };
+            let mut children: [[Slot; 3]; 6] = [[Slot::C; 3]; 6];
+            let mut n = 0;
+            if centre.is_some() {
+                let mut ring: Vec<Slot> = Vec::with_capacity(6);
+                for e in 0..3 {
+                    ring.push(Slot::V(e));
+                    if mids[e].is_some() {
+                        ring.push(Slot::M(e));
+                    }
+                }
+                for k in 0..ring.len() {
+                    children[n] = [ring[k], ring[(k + 1) % ring.len()], Slot::C];
+                    n += 1;
+                }
+            } else {
+                match nsplit {
+                    1 => {
+                        let e = (0..3).find(|&e| mids[e].is_some()).unwrap();
+                        let (a, b, c) = (e, (e + 1) % 3, (e + 2) % 3);
+                        children[0] = [Slot::V(a), Slot::M(e), Slot::V(c)];
+                        children[1] = [Slot::M(e), Slot::V(b), Slot::V(c)];
+                        n = 2;
+                    }
+                    2 => {
+                        let u = (0..3).find(|&e| mids[e].is_none()).unwrap();
+                        let (e1, e2) = ((u + 1) % 3, (u + 2) % 3);
+                        let (vu, vu1, vu2) = (u, (u + 1) % 3, (u + 2) % 3);
+                        children[0] = [Slot::M(e1), Slot::V(vu2), Slot::M(e2)];
+                        let d1 = (t.p[vu] - mid_p[e1]).length_squared();
+                        let d2 = (t.p[vu1] - mid_p[e2]).length_squared();
+                        if d1 <= d2 {
+                            children[1] = [Slot::V(vu), Slot::V(vu1), Slot::M(e1)];
+                            children[2] = [Slot::V(vu), Slot::M(e1), Slot::M(e2)];
+                        } else {
+                            children[1] = [Slot::V(vu), Slot::V(vu1), Slot::M(e2)];
+                            children[2] = [Slot::V(vu1), Slot::M(e1), Slot::M(e2)];
+                        }
+                        n = 3;
+                    }
+                    _ => {
+                        children[0] = [Slot::V(0), Slot::M(0), Slot::M(2)];
+                        children[1] = [Slot::M(0), Slot::V(1), Slot::M(1)];
+                        children[2] = [Slot::M(2), Slot::M(1), Slot::V(2)];
+                        children[3] = [Slot::M(0), Slot::M(1), Slot::M(2)];
+                        n = 4;
+                    }
+                }
+            }
+            // Push in reverse so children come out in order.
+            for ch in children[..n].iter().rev() {
+                let (a, b, c) = (slot(ch[0]), slot(ch[1]), slot(ch[2]));
+                self.stack.push(Tri {
+                    v: [a.0, b.0, c.0],
+                    p: [a.1, b.1, c.1],
+                    fixed: [mask(ch[0], ch[1]), mask(ch[1], ch[2]), mask(ch[2], ch[0])],
+                    level: t.level + 1,
+                });
+            }
+        }
+    }
+}

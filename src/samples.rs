@@ -1,0 +1,1 @@
+//! Built-in sample volumes (generated in code, no data files).

@@ -1,0 +1,181 @@
+//! Corner, edge and face numbering of a cell, as in VTK's `vtkMarchingCubes`.
+//!
+//! ```text
+//!         7 ________ 6           edges (corner pairs, lower index first
+//!         /|       /|            along the axis, so every edge points in
+//!        / |      / |            the positive axis direction):
+//!      4/__|_____/5 |             0: 0-1   4: 4-5   8: 0-4
+//!       |  |_____|__|             1: 1-2   5: 5-6   9: 1-5
+//!       | 3/     |  /2            2: 3-2   6: 7-6  10: 3-7
+//!       | /      | /              3: 0-3   7: 4-7  11: 2-6
+//!       |/_______|/
+//!       0        1        x to the right, y into the page, z up
+//! ```
+//! Corner `i` sits at [`CORNERS`]`[i]` in the cell's local coordinates
+//! (each in {0, 1}). The case index of a cell has bit `i` set when corner
+//! `i` is at or above the isovalue ("inside").
+
+/// Local coordinates (x, y, z) of the eight corners.
+pub const CORNERS: [[u8; 3]; 8] = [
+    [0, 0, 0],
+    [1, 0, 0],
+    [1, 1, 0],
+    [0, 1, 0],
+    [0, 0, 1],
+    [1, 0, 1],
+    [1, 1, 1],
+    [0, 1, 1],
+];
+
+/// The twelve edges as (lower corner, upper corner).
+pub const EDGES: [[u8; 2]; 12] = [
+    [0, 1],
+    [1, 2],
+    [3, 2],
+    [0, 3],
+    [4, 5],
+    [5, 6],
+    [7, 6],
+    [4, 7],
+    [0, 4],
+    [1, 5],
+    [3, 7],
+    [2, 6],
+];
+
+/// Axis (0 = x, 1 = y, 2 = z) along which each edge runs.
+pub const EDGE_AXIS: [u8; 12] = [0, 1, 0, 1, 0, 1, 0, 1, 2, 2, 2, 2];
+
+/// The six faces: (fixed axis, fixed local coordinate, corners in cyclic
+/// order). Opposite corners of a face are entries 0/2 and 1/3.
+pub const FACES: [(u8, u8, [u8; 4]); 6] = [
+    (0, 0, [0, 3, 7, 4]),
+    (0, 1, [1, 2, 6, 5]),
+    (1, 0, [0, 1, 5, 4]),
+    (1, 1, [3, 2, 6, 7]),
+    (2, 0, [0, 1, 2, 3]),
+    (2, 1, [4, 5, 6, 7]),
+];
+
+/// The edge joining two corners, if they share one.
+pub const fn edge_between(a: u8, b: u8) -> Option<u8> {
+    let mut e = 0;
+    while e < 12 {
+        let [p, q] = EDGES[e];
+        if (p == a && q == b) || (p == b && q == a) {
+            return Some(e as u8);
+        }
+        e += 1;
+    }
+    None
+}
+
+/// The four edges of each face, in the cyclic order of its corners
+/// (edge `k` joins face corners `k` and `k + 1`).
+pub const FACE_EDGES: [[u8; 4]; 6] = {
+    let mut out = [[0u8; 4]; 6];
+    let mut f = 0;
+    while f < 6 {
+        let c = FACES[f].2;
+        let mut k = 0;
+        while k < 4 {
+            out[f][k] = match edge_between(c[k], c[(k + 1) % 4]) {
+                Some(e) => e,
+                None => panic!("face corners must be adjacent"),
+            };
+            k += 1;
+        }
+        f += 1;
+    }
+    out
+};
+
+/// Whether the sign pattern `case` makes face `f` ambiguous (diagonally
+/// opposite corners agree and adjacent corners differ).
+#[inline]
+pub const fn face_is_ambiguous(case: u8, f: usize) -> bool {
+    let c = FACES[f].2;
+    let s0 = (case >> c[0]) & 1;
+    let s1 = (case >> c[1]) & 1;
+    let s2 = (case >> c[2]) & 1;
+    let s3 = (case >> c[3]) & 1;
+    s0 == s2 && s1 == s3 && s0 != s1
+}
+
+/// Cases whose trilinear topology may differ from the fixed table: an
+/// ambiguous face, or two lone corners on a body diagonal (MC case 4 and
+/// its complement, whose interior may hold a tunnel).
+pub const NEEDS_TOPOLOGY_TEST: [bool; 256] = {
+    let mut out = [false; 256];
+    let mut c = 0;
+    while c < 256 {
+        let case = c as u8;
+        let mut amb = false;
+        let mut f = 0;
+        while f < 6 {
+            if face_is_ambiguous(case, f) {
+                amb = true;
+            }
+            f += 1;
+        }
+        let pos = case.count_ones();
+        let diag = [(0u8, 6u8), (1, 7), (2, 4), (3, 5)];
+        let mut d = 0;
+        while d < 4 {
+            let m = (1u8 << diag[d].0) | (1u8 << diag[d].1);
+            if (pos == 2 && case == m) || (pos == 6 && case == !m) {
+                amb = true;
+            }
+            d += 1;
+        }
+        out[c] = amb;
+        c += 1;
+    }
+    out
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edges_point_along_positive_axes() {
+        for (e, [a, b]) in EDGES.iter().enumerate() {
+            let pa = CORNERS[*a as usize];
+            let pb = CORNERS[*b as usize];
+            let ax = EDGE_AXIS[e] as usize;
+            for k in 0..3 {
+                if k == ax {
+                    assert_eq!(pa[k] + 1, pb[k]);
+                } else {
+                    assert_eq!(pa[k], pb[k]);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn faces_are_planar_and_cyclic() {
+        for (f, (axis, val, corners)) in FACES.iter().enumerate() {
+            for c in corners {
+                assert_eq!(CORNERS[*c as usize][*axis as usize], *val);
+            }
+            for e in FACE_EDGES[f] {
+                let [a, b] = EDGES[e as usize];
+                assert!(corners.contains(&a) && corners.contains(&b));
+            }
+        }
+    }
+
+    #[test]
+    fn ambiguity_counts_match_mc_literature() {
+        // 6 faces, 2 ambiguous sign patterns of 16 each: every face is
+        // ambiguous in 2 * 16 = 32 of the 256 cases.
+        for f in 0..6 {
+            let n = (0..=255u8).filter(|&c| face_is_ambiguous(c, f)).count();
+            assert_eq!(n, 32);
+        }
+        assert!(NEEDS_TOPOLOGY_TEST[0b0100_0001]); // corners 0 and 6
+        assert!(!NEEDS_TOPOLOGY_TEST[1]);
+    }
+}
