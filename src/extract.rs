@@ -19,7 +19,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::filter::{ReconstructionFilter, Trilinear};
-use crate::mc::{case_index, cell_triangles};
+use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::Options;
@@ -64,7 +64,12 @@ pub(crate) fn key(p: DVec3) -> [u64; 3] {
 /// See the crate documentation for the method and [`Options`] for the
 /// settings. Returns an error for invalid input; never panics on any input.
 pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<Mesh, Error> {
-    extract_with_progress(volume, isovalue, options, &mut |_| ControlFlow::Continue(()))
+    extract_with_progress(
+        volume,
+        isovalue,
+        options,
+        &mut |_| ControlFlow::Continue(()),
+    )
 }
 
 /// Like [`extract`], reporting progress.
@@ -159,11 +164,7 @@ fn run<T: Scalar>(
         .num_threads(threads)
         .build()
         .map_err(|e| Error::ThreadPool(e.to_string()))?;
-    let cell_dims = [
-        grid.dims[0] - 1,
-        grid.dims[1] - 1,
-        grid.dims[2] - 1,
-    ];
+    let cell_dims = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
     let nz = cell_dims[2];
     // Slabs: several per thread for balance; the result does not depend on it.
     let nslabs = nz.min(threads * 8).max(1);
@@ -188,54 +189,55 @@ fn run<T: Scalar>(
     };
 
     // Runs one pass over all slabs while the calling thread reports progress.
-    let mut pass = |max_level: u32, mode: Mode, weight: (f64, f64)| -> Result<Vec<SlabOut>, Error> {
-        emitted.store(0, Ordering::Relaxed);
-        layers_done.store(0, Ordering::Relaxed);
-        over_cap.store(false, Ordering::Relaxed);
-        let shared = Shared {
-            filter: &filter,
-            cell_dims,
-            index_offset: grid.index_offset,
-            iso,
-            options,
-            max_level,
-            refine: refine && max_level > 0,
-            cancel: &cancel,
-            over_cap: &over_cap,
-            emitted: &emitted,
-            layers_done: &layers_done,
-        };
-        let (tx, rx) = std::sync::mpsc::channel();
-        let outs = std::thread::scope(|scope| {
-            let shared = &shared;
-            let slabs = &slabs;
-            let pool = &pool;
-            scope.spawn(move || {
-                let r: Vec<SlabOut> = pool.install(|| {
-                    slabs
-                        .par_iter()
-                        .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
-                        .collect()
+    let mut pass =
+        |max_level: u32, mode: Mode, weight: (f64, f64)| -> Result<Vec<SlabOut>, Error> {
+            emitted.store(0, Ordering::Relaxed);
+            layers_done.store(0, Ordering::Relaxed);
+            over_cap.store(false, Ordering::Relaxed);
+            let shared = Shared {
+                filter: &filter,
+                cell_dims,
+                index_offset: grid.index_offset,
+                iso,
+                options,
+                max_level,
+                refine: refine && max_level > 0,
+                cancel: &cancel,
+                over_cap: &over_cap,
+                emitted: &emitted,
+                layers_done: &layers_done,
+            };
+            let (tx, rx) = std::sync::mpsc::channel();
+            let outs = std::thread::scope(|scope| {
+                let shared = &shared;
+                let slabs = &slabs;
+                let pool = &pool;
+                scope.spawn(move || {
+                    let r: Vec<SlabOut> = pool.install(|| {
+                        slabs
+                            .par_iter()
+                            .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
+                            .collect()
+                    });
+                    let _ = tx.send(r);
                 });
-                let _ = tx.send(r);
-            });
-            loop {
-                match rx.recv_timeout(Duration::from_millis(20)) {
-                    Ok(r) => break r,
-                    Err(_) => {
-                        let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
-                        if progress(weight.0 + weight.1 * done.min(1.0)).is_break() {
-                            cancel.store(true, Ordering::Relaxed);
+                loop {
+                    match rx.recv_timeout(Duration::from_millis(20)) {
+                        Ok(r) => break r,
+                        Err(_) => {
+                            let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
+                            if progress(weight.0 + weight.1 * done.min(1.0)).is_break() {
+                                cancel.store(true, Ordering::Relaxed);
+                            }
                         }
                     }
                 }
+            });
+            if cancel.load(Ordering::Relaxed) {
+                return Err(Error::Aborted);
             }
-        });
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Aborted);
-        }
-        Ok(outs)
-    };
+            Ok(outs)
+        };
 
     let mut max_level = if refine { options.max_level } else { 0 };
     let mut outs = pass(max_level, Mode::Output { cap: user_cap }, (0.0, 0.9))?;
@@ -293,7 +295,7 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
     let t0 = Instant::now();
     let mut out = SlabOut::default();
     let mut map: KeyMap<u32> = KeyMap::default();
-    let mut edge_tris: Vec<[u8; 3]> = Vec::with_capacity(16);
+    let mut patch = Patch::default();
     let mut stack: Vec<Tri> = Vec::with_capacity(64);
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
@@ -314,7 +316,8 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
             if !count_only {
                 let n = out.tris.len() as u64;
                 if n > reported {
-                    let total = sh.emitted.fetch_add(n - reported, Ordering::Relaxed) + (n - reported);
+                    let total =
+                        sh.emitted.fetch_add(n - reported, Ordering::Relaxed) + (n - reported);
                     reported = n;
                     if total > cap {
                         sh.over_cap.store(true, Ordering::Relaxed);
@@ -335,8 +338,8 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                 if case == 0 || case == 255 {
                     continue;
                 }
-                edge_tris.clear();
-                if cell_triangles(&f, opts.topology, &mut edge_tris) {
+                patch.clear();
+                if cell_triangles(&f, opts.topology, &mut patch) {
                     out.ambiguous += 1;
                 }
                 let cell_g = [
@@ -345,15 +348,29 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                     sh.index_offset[2] + k as i64,
                 ];
                 let cell_f = DVec3::new(cell_g[0] as f64, cell_g[1] as f64, cell_g[2] as f64);
-                let mut ids = [u32::MAX; 12];
-                let mut loc = [DVec3::ZERO; 12];
+                let mut ids = [u32::MAX; 16];
+                let mut loc = [DVec3::ZERO; 16];
                 kept.clear();
                 pos_of.clear();
-                for tri in &edge_tris {
+                for tri in &patch.tris {
                     let mut tid = [0u32; 3];
                     for (slot, &e) in tri.iter().enumerate() {
                         let e = e as usize;
-                        if ids[e] == u32::MAX {
+                        if ids[e] == u32::MAX && e >= 12 {
+                            // An interior point of an ambiguous cell.
+                            let lp = DVec3::from_array(patch.extra[e - 12]);
+                            let gp = cell_f + lp;
+                            loc[e] = lp;
+                            if count_only {
+                                ids[e] = e as u32;
+                            } else {
+                                let next = out.verts.len() as u32;
+                                ids[e] = *map.entry(key(gp)).or_insert_with(|| {
+                                    out.verts.push(gp);
+                                    next
+                                });
+                            }
+                        } else if ids[e] == u32::MAX {
                             let [a, b] = EDGES[e];
                             let (sa, sb) = (c[a as usize], c[b as usize]);
                             // vtkMarchingCubes: t from the lower corner.
@@ -382,7 +399,11 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                     }
                     if count_only {
                         // Degeneracy by position when ids are not welded.
-                        let p = [loc[tri[0] as usize], loc[tri[1] as usize], loc[tri[2] as usize]];
+                        let p = [
+                            loc[tri[0] as usize],
+                            loc[tri[1] as usize],
+                            loc[tri[2] as usize],
+                        ];
                         if p[0] == p[1] || p[1] == p[2] || p[0] == p[2] {
                             continue;
                         }
@@ -432,7 +453,10 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                     for e in 0..3 {
                         let (a, b) = (t[e], t[(e + 1) % 3]);
                         let pair = if a < b { (a, b) } else { (b, a) };
-                        let boundary = uses.iter().find(|u| u.0 == pair).map_or(false, |u| u.1 == 1);
+                        let boundary = uses
+                            .iter()
+                            .find(|u| u.0 == pair)
+                            .map_or(false, |u| u.1 == 1);
                         if boundary {
                             fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
                         }
@@ -502,7 +526,11 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
         total_t += o.total_time;
         // The lowest z of this slab's vertices is its bottom plane.
         let bottom = o.verts.iter().map(|v| v.z).fold(f64::INFINITY, f64::min);
-        let top = o.verts.iter().map(|v| v.z).fold(f64::NEG_INFINITY, f64::max);
+        let top = o
+            .verts
+            .iter()
+            .map(|v| v.z)
+            .fold(f64::NEG_INFINITY, f64::max);
         remap.clear();
         let mut next_plane: KeyMap<u64> = KeyMap::default();
         for v in &o.verts {
@@ -523,7 +551,11 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
             remap.push(id);
         }
         for (t, l) in o.tris.iter().zip(&o.levels) {
-            mesh.triangles.push([remap[t[0] as usize], remap[t[1] as usize], remap[t[2] as usize]]);
+            mesh.triangles.push([
+                remap[t[0] as usize],
+                remap[t[1] as usize],
+                remap[t[2] as usize],
+            ]);
             mesh.levels.push(*l);
         }
         prev_plane = next_plane;
@@ -551,7 +583,11 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
     stats.faces_above_epsilon = counters.above_eps;
     // Per-thread times summed; scale the split to the wall time of the pass.
     let total = total_t.as_secs_f64();
-    let share = if total > 0.0 { refine_t.as_secs_f64() / total } else { 0.0 };
+    let share = if total > 0.0 {
+        refine_t.as_secs_f64() / total
+    } else {
+        0.0
+    };
     let _ = share;
     stats.time_refine = refine_t.as_secs_f64();
     stats.time_mc = (total_t - refine_t.min(total_t)).as_secs_f64();
@@ -602,7 +638,13 @@ fn remove_duplicate_triangles(mesh: &mut Mesh) {
             let ups = group.iter().filter(|g| !g.2).count();
             let downs = group.len() - ups;
             // Keep the surplus orientation once, at its first occurrence.
-            let keep_dir = if ups > downs { Some(false) } else if downs > ups { Some(true) } else { None };
+            let keep_dir = if ups > downs {
+                Some(false)
+            } else if downs > ups {
+                Some(true)
+            } else {
+                None
+            };
             let mut kept = false;
             for g in group {
                 if Some(g.2) == keep_dir && !kept {

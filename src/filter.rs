@@ -137,7 +137,9 @@ mod tests {
 
     #[test]
     fn reproduces_trilinear_polynomials_and_gradients() {
-        let f = |x: f64, y: f64, z: f64| 1.0 + 2.0 * x - y + 0.5 * z + 3.0 * x * y - x * z + 0.25 * y * z - 2.0 * x * y * z;
+        let f = |x: f64, y: f64, z: f64| {
+            1.0 + 2.0 * x - y + 0.5 * z + 3.0 * x * y - x * z + 0.25 * y * z - 2.0 * x * y * z
+        };
         let c = corners_of(f);
         for &(x, y, z) in &[(0.1, 0.2, 0.3), (0.9, 0.5, 0.01), (0.5, 0.5, 0.5)] {
             let p = DVec3::new(x, y, z);
@@ -164,7 +166,10 @@ mod tests {
         for &(y, z) in &[(0.1234, 0.987), (0.5, 0.5), (0.333, 0.0), (1.0, 0.7)] {
             let pa = DVec3::new(1.0, y, z);
             let pb = DVec3::new(0.0, y, z);
-            assert_eq!(trilinear_value(&a, pa).to_bits(), trilinear_value(&b, pb).to_bits());
+            assert_eq!(
+                trilinear_value(&a, pa).to_bits(),
+                trilinear_value(&b, pb).to_bits()
+            );
             let ga = trilinear_gradient(&a, pa);
             let gb = trilinear_gradient(&b, pb);
             assert_eq!(ga.y.to_bits(), gb.y.to_bits());

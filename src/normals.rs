@@ -89,7 +89,11 @@ pub(crate) fn compute_normals<T: Scalar>(
                             * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
                             * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
                         let _ = q;
-                        n += grad(c[0] + cc[0] as usize, c[1] + cc[1] as usize, c[2] + cc[2] as usize) * w;
+                        n += grad(
+                            c[0] + cc[0] as usize,
+                            c[1] + cc[1] as usize,
+                            c[2] + cc[2] as usize,
+                        ) * w;
                     }
                     finish(n, spacing)
                 })

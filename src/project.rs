@@ -85,7 +85,11 @@ pub fn project<F: ReconstructionFilter>(
     }
     let y = [q(lo), q(lo + w / 3.0), q(lo + 2.0 * w / 3.0), q(hi)];
     // Divided differences with nodes 0, 1/3, 2/3, 1.
-    let d1 = [(y[1] - y[0]) * 3.0, (y[2] - y[1]) * 3.0, (y[3] - y[2]) * 3.0];
+    let d1 = [
+        (y[1] - y[0]) * 3.0,
+        (y[2] - y[1]) * 3.0,
+        (y[3] - y[2]) * 3.0,
+    ];
     let d2 = [(d1[1] - d1[0]) * 1.5, (d1[2] - d1[1]) * 1.5];
     let d3 = d2[1] - d2[0];
     // Monomial coefficients of c0 + c1 s + c2 s^2 + c3 s^3.
@@ -128,7 +132,11 @@ pub fn project<F: ReconstructionFilter>(
         .windows(2)
         .map(|wnd| {
             let (ta, tb) = (lo + wnd[0] * w, lo + wnd[1] * w);
-            let near = if ta <= 0.0 && tb >= 0.0 { 0.0 } else { ta.abs().min(tb.abs()) };
+            let near = if ta <= 0.0 && tb >= 0.0 {
+                0.0
+            } else {
+                ta.abs().min(tb.abs())
+            };
             (near, ta, tb)
         })
         .collect();
@@ -140,7 +148,10 @@ pub fn project<F: ReconstructionFilter>(
                 break;
             }
         }
-        let (qa, qb) = (if ta == 0.0 { q0 } else { q(ta) }, if tb == 0.0 { q0 } else { q(tb) });
+        let (qa, qb) = (
+            if ta == 0.0 { q0 } else { q(ta) },
+            if tb == 0.0 { q0 } else { q(tb) },
+        );
         if qa == 0.0 || qb == 0.0 || (qa < 0.0) != (qb < 0.0) {
             let t = solve(&q, ta, qa, tb, qb);
             if best.map_or(true, |bt| t.abs() < bt.abs()) {

@@ -14,8 +14,24 @@ pub mod trilinear;
 use crate::options::Topology;
 use crate::tables::cube::NEEDS_TOPOLOGY_TEST;
 
-/// Triangles of one cell, as triples of cell edge indices (0..12).
-pub type EdgeTriangles = Vec<[u8; 3]>;
+/// The patch of one cell: triangles as triples of vertex ids, where ids
+/// 0..12 are cell edges and `12 + k` is the interior point `extra[k]`
+/// (local coordinates, on the surface).
+#[derive(Debug, Clone, Default)]
+pub struct Patch {
+    /// Triangles.
+    pub tris: Vec<[u8; 3]>,
+    /// Interior points.
+    pub extra: Vec<[f64; 3]>,
+}
+
+impl Patch {
+    /// Empties the patch, keeping its memory.
+    pub fn clear(&mut self) {
+        self.tris.clear();
+        self.extra.clear();
+    }
+}
 
 /// Case index: bit `i` set when corner `i` is inside (`f >= 0`).
 #[inline(always)]
@@ -30,16 +46,16 @@ pub fn case_index(f: &[f64; 8]) -> u8 {
 /// Appends the triangles of one cell to `out`; returns whether the
 /// trilinear topology test ran (the cell was ambiguous).
 #[inline]
-pub fn cell_triangles(f: &[f64; 8], topology: Topology, out: &mut EdgeTriangles) -> bool {
+pub fn cell_triangles(f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool {
     let case = case_index(f);
     if case == 0 || case == 255 {
         return false;
     }
     if topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize] {
-        trilinear::triangles(f, out);
+        trilinear::triangles(f, &mut out.tris, &mut out.extra);
         true
     } else {
-        classic::triangles(case, out);
+        classic::triangles(case, &mut out.tris);
         false
     }
 }

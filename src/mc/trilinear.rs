@@ -144,7 +144,9 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
         let mut normal = [0.0; 3];
         normal[*axis as usize] = if *val == 0 { -1.0 } else { 1.0 };
         let fe = FACE_EDGES[k];
-        let crossed: Vec<usize> = (0..4).filter(|&i| inside(c[i]) != inside(c[(i + 1) % 4])).collect();
+        let crossed: Vec<usize> = (0..4)
+            .filter(|&i| inside(c[i]) != inside(c[(i + 1) % 4]))
+            .collect();
         let mut segments: Vec<(u8, u8, [f64; 3])> = Vec::with_capacity(2);
         match crossed.len() {
             2 => {
@@ -275,7 +277,11 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
             continue;
         }
         let join_in = joins_inside(g);
-        let (p, q) = if s[0] == join_in { (0usize, 2usize) } else { (1, 3) };
+        let (p, q) = if s[0] == join_in {
+            (0usize, 2usize)
+        } else {
+            (1, 3)
+        };
         // The slice point on vertical edge j joins, along that edge, the
         // end of the same sign.
         let end = |j: usize| -> u8 {
@@ -315,7 +321,11 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
 }
 
 /// Appends the triangles of an ambiguous cell (see the module docs).
-pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>) {
+///
+/// Vertex ids 0..12 are cell edges; id `12 + k` is the interior point
+/// `extra[k]` (local coordinates), added where a fan would lay a triangle
+/// flat in a cell face.
+pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
     let decisions = face_decisions(f);
     let loops = loops(f, &decisions);
     if loops.is_empty() {
@@ -342,15 +352,58 @@ pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>) {
             stitch(f, &loops[group[0]], &loops[group[1]], out);
         } else {
             for &j in &group {
-                fan(&loops[j], out);
+                disk(f, &loops[j], out, extra);
             }
         }
     }
 }
 
-fn fan(l: &[u8], out: &mut Vec<[u8; 3]>) {
-    for k in 1..l.len() - 1 {
-        out.push([l[0], l[k], l[k + 1]]);
+/// Whether two cell edges lie on a common face (a diagonal between their
+/// crossings would lie flat in that face, where the neighbouring cell's
+/// patch has its boundary).
+fn share_face(a: u8, b: u8) -> bool {
+    FACE_EDGES
+        .iter()
+        .any(|fe| fe.contains(&a) && fe.contains(&b))
+}
+
+/// A disk: a fan from the first loop vertex whose diagonals all cross the
+/// cell's interior, else a fan around an interior vertex on the surface.
+fn disk(f: &[f64; 8], l: &[u8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
+    let n = l.len();
+    if n == 3 {
+        out.push([l[0], l[1], l[2]]);
+        return;
+    }
+    for s in 0..n {
+        if (2..n - 1).all(|k| !share_face(l[s], l[(s + k) % n])) {
+            for k in 1..n - 1 {
+                out.push([l[s], l[(s + k) % n], l[(s + k + 1) % n]]);
+            }
+            return;
+        }
+    }
+    let c = 12 + extra.len() as u8;
+    extra.push(interior_point(f, l));
+    for k in 0..n {
+        out.push([c, l[k], l[(k + 1) % n]]);
+    }
+}
+
+/// The centroid of a loop's crossings, moved onto the surface along the
+/// gradient line inside the cell when a root is found there.
+fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
+    let mut c = [0.0; 3];
+    for &e in l {
+        let p = crossing(f, e);
+        for a in 0..3 {
+            c[a] += p[a] / l.len() as f64;
+        }
+    }
+    let p = glam::DVec3::from_array(c);
+    match crate::project::project::<crate::filter::Trilinear<'static, f64>>(f, 0.0, p, 0) {
+        Some(pr) => pr.point.to_array(),
+        None => c,
     }
 }
 
@@ -378,7 +431,15 @@ fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
         } else if db == n {
             true
         } else {
-            dist2(pa[i1], pb[j]) <= dist2(pa[i], pb[j1])
+            // Prefer a diagonal through the interior over one flat in a
+            // face, then the shorter one.
+            let fa = share_face(a[i1], b[j]);
+            let fb = share_face(a[i], b[j1]);
+            if fa != fb {
+                fb
+            } else {
+                dist2(pa[i1], pb[j]) <= dist2(pa[i], pb[j1])
+            }
         };
         if advance_a {
             out.push([a[i], a[i1], b[j]]);
