@@ -116,7 +116,8 @@ enum Mode {
     Count,
 }
 
-struct Shared<'a, F: ReconstructionFilter> {
+struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
+    grid: Grid<'a, T>,
     filter: &'a F,
     cell_dims: [usize; 3],
     index_offset: [i64; 3],
@@ -195,6 +196,7 @@ fn run<T: Scalar>(
             layers_done.store(0, Ordering::Relaxed);
             over_cap.store(false, Ordering::Relaxed);
             let shared = Shared {
+                grid,
                 filter: &filter,
                 cell_dims,
                 index_offset: grid.index_offset,
@@ -286,8 +288,8 @@ fn run<T: Scalar>(
     Ok(mesh)
 }
 
-fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
-    sh: &Shared<'_, F>,
+fn process_slab<T: Scalar, F: ReconstructionFilter>(
+    sh: &Shared<'_, T, F>,
     k0: usize,
     k1: usize,
     mode: Mode,
@@ -308,6 +310,12 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
     };
     let mut reported = 0u64;
     let opts = sh.options;
+    // Four sample rows around the current row of cells: (j, k), (j+1, k),
+    // (j, k+1), (j+1, k+1); the case index comes from their inside bits.
+    let nxs = nx + 1;
+    let mut rows = vec![vec![0.0f64; nxs]; 4];
+    let mut ins = vec![vec![0u8; nxs]; 4];
+    let mut fin = [true; 4];
     'layers: for k in k0..k1 {
         for j in 0..ny {
             if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
@@ -325,19 +333,62 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                     }
                 }
             }
+            if j == 0 {
+                fin[0] = sh.grid.row_into(0, k, 0.0, &mut rows[0]);
+                fin[2] = sh.grid.row_into(0, k + 1, 0.0, &mut rows[2]);
+            } else {
+                rows.swap(0, 1);
+                rows.swap(2, 3);
+                fin.swap(0, 1);
+                fin.swap(2, 3);
+                ins.swap(0, 1);
+                ins.swap(2, 3);
+            }
+            fin[1] = sh.grid.row_into(j + 1, k, 0.0, &mut rows[1]);
+            fin[3] = sh.grid.row_into(j + 1, k + 1, 0.0, &mut rows[3]);
+            for r in 0..4 {
+                if j == 0 || r == 1 || r == 3 {
+                    for (b, v) in ins[r].iter_mut().zip(&rows[r]) {
+                        *b = (*v >= sh.iso) as u8;
+                    }
+                }
+            }
+            let all_finite = fin.iter().all(|&x| x);
+            let (i0, i1, i2, i3) = (&ins[0], &ins[1], &ins[2], &ins[3]);
             for i in 0..nx {
-                let Some(c) = sh.filter.load([i, j, k]) else {
+                let case = i0[i]
+                    | (i0[i + 1] << 1)
+                    | (i1[i + 1] << 2)
+                    | (i1[i] << 3)
+                    | (i2[i] << 4)
+                    | (i2[i + 1] << 5)
+                    | (i3[i + 1] << 6)
+                    | (i3[i] << 7);
+                if all_finite && (case == 0 || case == 255) {
+                    continue;
+                }
+                let c = [
+                    rows[0][i],
+                    rows[0][i + 1],
+                    rows[1][i + 1],
+                    rows[1][i],
+                    rows[2][i],
+                    rows[2][i + 1],
+                    rows[3][i + 1],
+                    rows[3][i],
+                ];
+                if !all_finite && !c.iter().all(|v| v.is_finite()) {
                     out.nonfinite += 1;
                     continue;
-                };
+                }
+                if case == 0 || case == 255 {
+                    continue;
+                }
                 let mut f = [0.0; 8];
                 for q in 0..8 {
                     f[q] = c[q] - sh.iso;
                 }
-                let case = case_index(&f);
-                if case == 0 || case == 255 {
-                    continue;
-                }
+                debug_assert_eq!(case, case_index(&f));
                 patch.clear();
                 if cell_triangles(&f, opts.topology, &mut patch) {
                     out.ambiguous += 1;
@@ -438,8 +489,12 @@ fn process_slab<F: ReconstructionFilter<Cell = [f64; 8]>>(
                         }
                     }
                 }
+                let Some(fc) = sh.filter.load([i, j, k]) else {
+                    out.nonfinite += 1;
+                    continue;
+                };
                 let mut refiner = Refiner::<F> {
-                    cell: &c,
+                    cell: &fc,
                     iso: sh.iso,
                     epsilon: opts.epsilon,
                     max_level: sh.max_level,

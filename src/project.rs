@@ -98,7 +98,9 @@ pub fn project<F: ReconstructionFilter>(
     let c2 = d2[0] - d3;
     let c1 = d1[0] - d2[0] / 3.0 + d3 * (2.0 / 9.0);
     // Critical points of the cubic split [0, 1] into monotone pieces.
-    let mut cuts = vec![0.0, 1.0];
+    let mut cuts = [0.0f64; 6];
+    let mut ncuts = 2;
+    cuts[1] = 1.0;
     let (a, b, c) = (3.0 * c3, 2.0 * c2, c1);
     let scale = a.abs().max(b.abs()).max(c.abs());
     if scale > 0.0 {
@@ -109,40 +111,49 @@ pub fn project<F: ReconstructionFilter>(
                 let qq = -0.5 * (b + if b < 0.0 { -s } else { s });
                 for r in [qq / a, if qq != 0.0 { c / qq } else { f64::NAN }] {
                     if r > 0.0 && r < 1.0 {
-                        cuts.push(r);
+                        cuts[ncuts] = r;
+                        ncuts += 1;
                     }
                 }
             }
         } else if b != 0.0 {
             let r = -c / b;
             if r > 0.0 && r < 1.0 {
-                cuts.push(r);
+                cuts[ncuts] = r;
+                ncuts += 1;
             }
         }
     }
     // The point p itself (t = 0) is a cut too, so pieces lie on one side.
     let s0 = -lo / w;
     if s0 > 0.0 && s0 < 1.0 {
-        cuts.push(s0);
+        cuts[ncuts] = s0;
+        ncuts += 1;
     }
+    let cuts = &mut cuts[..ncuts];
     cuts.sort_by(|x, y| x.total_cmp(y));
-    cuts.dedup();
     // Pieces ordered by their distance from t = 0.
-    let mut pieces: Vec<(f64, f64, f64)> = cuts
-        .windows(2)
-        .map(|wnd| {
-            let (ta, tb) = (lo + wnd[0] * w, lo + wnd[1] * w);
-            let near = if ta <= 0.0 && tb >= 0.0 {
-                0.0
-            } else {
-                ta.abs().min(tb.abs())
-            };
-            (near, ta, tb)
-        })
-        .collect();
+    let mut pieces = [(0.0f64, 0.0f64, 0.0f64); 5];
+    let mut npieces = 0;
+    for wnd in cuts.windows(2) {
+        if wnd[1] <= wnd[0] {
+            continue;
+        }
+        // t = 0 must be an exact piece end so q(0) is reused bit-exactly.
+        let ta = if wnd[0] == s0 { 0.0 } else { lo + wnd[0] * w };
+        let tb = if wnd[1] == s0 { 0.0 } else { lo + wnd[1] * w };
+        let near = if ta <= 0.0 && tb >= 0.0 {
+            0.0
+        } else {
+            ta.abs().min(tb.abs())
+        };
+        pieces[npieces] = (near, ta, tb);
+        npieces += 1;
+    }
+    let pieces = &mut pieces[..npieces];
     pieces.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
     let mut best: Option<f64> = None;
-    for (near, ta, tb) in pieces {
+    for &mut (near, ta, tb) in pieces {
         if let Some(bt) = best {
             if near >= bt.abs() {
                 break;
@@ -167,6 +178,60 @@ pub fn project<F: ReconstructionFilter>(
     })
 }
 
+/// Outcome of testing a sample point against epsilon.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Test {
+    /// `S_K` is within epsilon of the point.
+    Near,
+    /// The nearest point of `S_K` is farther than epsilon: split there.
+    Far(DVec3),
+    /// No point of `S_K` on the gradient line inside the cell.
+    Failed,
+}
+
+/// Decides whether `p` is within `epsilon` of `S_K` along the gradient line
+/// (with the same fixed axes as [`project`]). One Newton step usually
+/// settles it: if the step stays within epsilon and brackets a root, the
+/// nearest root is nearer still. Otherwise the exact [`project`] decides.
+/// A pure function of its arguments, like [`project`].
+pub fn test<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    fixed: u8,
+    epsilon: f64,
+) -> Test {
+    let mut g = F::gradient(cell, p);
+    for a in 0..3 {
+        if fixed & (1 << a) != 0 {
+            g[a] = 0.0;
+        }
+    }
+    let len = g.length();
+    if len > 0.0 && len.is_finite() {
+        let q0 = F::value(cell, p) - iso;
+        if q0 == 0.0 {
+            return Test::Near;
+        }
+        let d = g / len;
+        let t1 = -q0 / len;
+        if t1.abs() <= epsilon {
+            let p1 = p + d * t1;
+            if p1.cmpge(DVec3::ZERO).all() && p1.cmple(DVec3::ONE).all() {
+                let q1 = F::value(cell, p1) - iso;
+                if q1 == 0.0 || (q1 < 0.0) != (q0 < 0.0) {
+                    return Test::Near;
+                }
+            }
+        }
+    }
+    match project::<F>(cell, iso, p, fixed) {
+        None => Test::Failed,
+        Some(pr) if pr.distance > epsilon => Test::Far(pr.point),
+        Some(_) => Test::Near,
+    }
+}
+
 /// Root of `q` in `[a, b]` with `q(a)`, `q(b)` of opposite signs (or zero):
 /// Illinois iteration, falling back to bisection when it stalls.
 fn solve(q: &impl Fn(f64) -> f64, mut a: f64, mut qa: f64, mut b: f64, mut qb: f64) -> f64 {
@@ -176,6 +241,8 @@ fn solve(q: &impl Fn(f64) -> f64, mut a: f64, mut qa: f64, mut b: f64, mut qb: f
     if qb == 0.0 {
         return b;
     }
+    // Residual small enough for any use (values are f64 samples).
+    let tol = 1e-14 * qa.abs().max(qb.abs());
     let mut side = 0i8;
     for it in 0..200 {
         let width = (b - a).abs();
@@ -187,7 +254,7 @@ fn solve(q: &impl Fn(f64) -> f64, mut a: f64, mut qa: f64, mut b: f64, mut qb: f
             t = 0.5 * (a + b);
         }
         let qt = q(t);
-        if qt == 0.0 {
+        if qt.abs() <= tol {
             return t;
         }
         if (qt < 0.0) == (qb < 0.0) {

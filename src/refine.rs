@@ -15,7 +15,7 @@ use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
 use crate::options::Rule;
-use crate::project::project;
+use crate::project::{test, Test};
 
 /// Refinement settings and counters for one worker.
 pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
@@ -75,13 +75,13 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     /// Tests one sample point; returns the relocated point if it must split.
     fn test(&mut self, p: DVec3, fixed: u8) -> Option<DVec3> {
         self.counters.samples += 1;
-        match project::<F>(self.cell, self.iso, p, fixed) {
-            None => {
+        match test::<F>(self.cell, self.iso, p, fixed, self.epsilon) {
+            Test::Failed => {
                 self.counters.failures += 1;
                 None
             }
-            Some(pr) if pr.distance > self.epsilon => Some(pr.point),
-            Some(_) => None,
+            Test::Far(q) => Some(q),
+            Test::Near => None,
         }
     }
 
@@ -90,10 +90,8 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     fn above(&mut self, t: &Tri) -> bool {
         for e in 0..3 {
             let m = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-            if let Some(pr) = project::<F>(self.cell, self.iso, m, t.fixed[e]) {
-                if pr.distance > self.epsilon {
-                    return true;
-                }
+            if let Test::Far(_) = test::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon) {
+                return true;
             }
         }
         false

@@ -298,6 +298,30 @@ impl<'a, T: Scalar> Grid<'a, T> {
         }
     }
 
+    /// Copies row `(j, k)` into `out` (length `dims[0]`) as `f64 - shift`,
+    /// returning whether every value is finite.
+    #[inline]
+    pub(crate) fn row_into(&self, j: usize, k: usize, shift: f64, out: &mut [f64]) -> bool {
+        assert!(j < self.dims[1] && k < self.dims[2] && out.len() == self.dims[0]);
+        let base = self.offset + j as isize * self.strides[1] + k as isize * self.strides[2];
+        let s0 = self.strides[0];
+        let mut finite = true;
+        for (i, o) in out.iter_mut().enumerate() {
+            // SAFETY: `Volume::validate` proved every in-range index lies in
+            // the buffer; j and k are asserted above and i < dims[0].
+            let v = unsafe {
+                self.data
+                    .get_unchecked((base + i as isize * s0) as usize)
+                    .to_f64()
+            };
+            if T::FLOAT {
+                finite &= v.is_finite();
+            }
+            *o = v - shift;
+        }
+        finite
+    }
+
     /// Sample at local indices, as f64.
     #[inline(always)]
     pub(crate) fn get(&self, i: usize, j: usize, k: usize) -> f64 {
