@@ -508,10 +508,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     for e in 0..3 {
                         let (a, b) = (t[e], t[(e + 1) % 3]);
                         let pair = if a < b { (a, b) } else { (b, a) };
-                        let boundary = uses
-                            .iter()
-                            .find(|u| u.0 == pair)
-                            .map_or(false, |u| u.1 == 1);
+                        let boundary = uses.iter().any(|u| u.0 == pair && u.1 == 1);
                         if boundary {
                             fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
                         }
@@ -521,6 +518,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         p,
                         fixed,
                         level: 0,
+                        near: 0,
                     };
                     if count_only {
                         refiner.run(root, false, &mut |_| {}, &mut |_| 0);

@@ -34,6 +34,8 @@
 //! ```
 
 #![warn(missing_docs)]
+// Numeric kernels index several parallel arrays by one loop variable.
+#![allow(clippy::needless_range_loop)]
 
 mod error;
 mod mesh;

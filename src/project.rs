@@ -201,12 +201,15 @@ pub fn test<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
 ) -> Test {
-    let mut g = F::gradient(cell, p);
-    for a in 0..3 {
-        if fixed & (1 << a) != 0 {
-            g[a] = 0.0;
+    let mask = |mut g: DVec3| {
+        for a in 0..3 {
+            if fixed & (1 << a) != 0 {
+                g[a] = 0.0;
+            }
         }
-    }
+        g
+    };
+    let g = mask(F::gradient(cell, p));
     let len = g.length();
     if len > 0.0 && len.is_finite() {
         let q0 = F::value(cell, p) - iso;
@@ -214,14 +217,41 @@ pub fn test<F: ReconstructionFilter>(
             return Test::Near;
         }
         let d = g / len;
-        let t1 = -q0 / len;
-        if t1.abs() <= epsilon {
-            let p1 = p + d * t1;
-            if p1.cmpge(DVec3::ZERO).all() && p1.cmple(DVec3::ONE).all() {
-                let q1 = F::value(cell, p1) - iso;
-                if q1 == 0.0 || (q1 < 0.0) != (q0 < 0.0) {
+        if let Some((lo, hi)) = clip_to_cell(p, d) {
+            let q = |t: f64| F::value(cell, p + d * t) - iso;
+            let tol = 1e-13 * q0.abs();
+            // Newton walk along the line until it brackets a root.
+            let (mut t, mut qt, mut slope) = (0.0, q0, len);
+            for _ in 0..6 {
+                if !(slope != 0.0 && slope.is_finite()) {
+                    break;
+                }
+                let tn = t - qt / slope;
+                if !(tn >= lo && tn <= hi) {
+                    break;
+                }
+                let qn = q(tn);
+                let (root, near_end, far_end) = if qn.abs() <= tol {
+                    (Some(tn), tn.abs(), tn.abs())
+                } else if (qn < 0.0) != (q0 < 0.0) {
+                    (None, t.abs().min(tn.abs()), t.abs().max(tn.abs()))
+                } else {
+                    t = tn;
+                    qt = qn;
+                    slope = mask(F::gradient(cell, p + d * tn)).dot(d);
+                    continue;
+                };
+                // A root lies between t and tn (both on one side of 0).
+                if far_end <= epsilon {
                     return Test::Near;
                 }
+                let r = root.unwrap_or_else(|| solve(&q, t, qt, tn, qn));
+                let _ = near_end;
+                return if r.abs() > epsilon {
+                    Test::Far(p + d * r)
+                } else {
+                    Test::Near
+                };
             }
         }
     }
@@ -230,6 +260,33 @@ pub fn test<F: ReconstructionFilter>(
         Some(pr) if pr.distance > epsilon => Test::Far(pr.point),
         Some(_) => Test::Near,
     }
+}
+
+/// Quick estimate of whether `p` is farther than `epsilon` from `S_K`: no
+/// sign change of `F - iso` between `p` and the two points `epsilon` away
+/// along the gradient line. Used only for statistics.
+pub fn seems_far<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    fixed: u8,
+    epsilon: f64,
+) -> bool {
+    let mut g = F::gradient(cell, p);
+    for a in 0..3 {
+        if fixed & (1 << a) != 0 {
+            g[a] = 0.0;
+        }
+    }
+    let len = g.length();
+    if !(len > 0.0 && len.is_finite()) {
+        return false;
+    }
+    let d = g / len * epsilon;
+    let q0 = F::value(cell, p) - iso;
+    let qa = F::value(cell, (p + d).clamp(DVec3::ZERO, DVec3::ONE)) - iso;
+    let qb = F::value(cell, (p - d).clamp(DVec3::ZERO, DVec3::ONE)) - iso;
+    q0 != 0.0 && (qa < 0.0) == (q0 < 0.0) && (qb < 0.0) == (q0 < 0.0) && qa != 0.0 && qb != 0.0
 }
 
 /// Root of `q` in `[a, b]` with `q(a)`, `q(b)` of opposite signs (or zero):

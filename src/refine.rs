@@ -15,7 +15,7 @@ use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
 use crate::options::Rule;
-use crate::project::{test, Test};
+use crate::project::{seems_far, test, Test};
 
 /// Refinement settings and counters for one worker.
 pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
@@ -50,6 +50,9 @@ pub(crate) struct Tri {
     pub p: [DVec3; 3],
     pub fixed: [u8; 3],
     pub level: u8,
+    /// Bit `e` set: edge `e` was already tested and is within epsilon
+    /// (an edge kept whole by a split); a pure function, so not retested.
+    pub near: u8,
 }
 
 /// Fixed axes shared by two points: those where both have the same
@@ -90,7 +93,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     fn above(&mut self, t: &Tri) -> bool {
         for e in 0..3 {
             let m = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-            if let Test::Far(_) = test::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon) {
+            if t.near & (1 << e) == 0
+                && seems_far::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon)
+            {
                 return true;
             }
         }
@@ -123,7 +128,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let mut midpoint = [DVec3::ZERO; 3];
             for e in 0..3 {
                 midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-                mids[e] = self.test(midpoint[e], t.fixed[e]);
+                if t.near & (1 << e) == 0 {
+                    mids[e] = self.test(midpoint[e], t.fixed[e]);
+                }
             }
             let nsplit = mids.iter().filter(|m| m.is_some()).count();
             let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
@@ -191,6 +198,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 }
                 0
             };
+            // A child edge that is a whole, unsplit parent edge was tested
+            // (or known) near.
+            let whole = |a: Slot, b: Slot| -> bool { matches!((a, b), (Slot::V(_), Slot::V(_))) };
             let mut children: [[Slot; 3]; 6] = [[Slot::C; 3]; 6];
             let mut n = 0;
             if centre.is_some() {
@@ -247,6 +257,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                     p: [a.1, b.1, c.1],
                     fixed: [mask(ch[0], ch[1]), mask(ch[1], ch[2]), mask(ch[2], ch[0])],
                     level: t.level + 1,
+                    near: whole(ch[0], ch[1]) as u8
+                        | (whole(ch[1], ch[2]) as u8) << 1
+                        | (whole(ch[2], ch[0]) as u8) << 2,
                 });
             }
         }

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Runs every test of the project: the Rust core (unit, integration, property
+# and doc tests, clippy, rustfmt), the C API (sanitizers, valgrind, CMake
+# package) and the VTK filter (CTest and pytest). Installs the Debian
+# packages it needs. Idempotent; quick when nothing changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/lib.sh
+
+passed=0
+failed=0
+stage() {
+    local name="$1"
+    shift
+    echo "==> $name"
+    if "$@"; then
+        passed=$((passed + 1))
+        echo "<== $name: ok"
+    else
+        failed=$((failed + 1))
+        echo "<== $name: FAILED"
+    fi
+}
+
+ensure_packages
+ensure_rust
+
+stage "rustfmt" cargo fmt --all -- --check
+stage "clippy" cargo clippy --all-targets -- -D warnings
+stage "cargo test" cargo test --all-targets
+stage "doc tests" cargo test --doc
+stage "C API" bash tests/c/run.sh
+stage "VTK filter" bash tests/vtk/run.sh
+
+echo "test suites: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
