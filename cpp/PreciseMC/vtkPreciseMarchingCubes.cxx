@@ -1,0 +1,829 @@
+/*=========================================================================
+
+  Program:   PreciseMC
+  Module:    vtkPreciseMarchingCubes.cxx
+
+  Copyright (c) the PreciseMC authors
+  All rights reserved.
+  Licensed under the MIT or Apache-2.0 license, at your option.
+
+     This software is distributed WITHOUT ANY WARRANTY; without even
+     the implied warranty of MERCHANTABILITY or FITNESS FOR A PARTICULAR
+     PURPOSE.
+
+=========================================================================*/
+#include "vtkPreciseMarchingCubes.h"
+
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkDataArray.h"
+#include "vtkDoubleArray.h"
+#include "vtkFloatArray.h"
+#include "vtkIdList.h"
+#include "vtkIdTypeArray.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkMath.h"
+#include "vtkMatrix3x3.h"
+#include "vtkMatrix4x4.h"
+#include "vtkNew.h"
+#include "vtkObjectFactory.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkPolyData.h"
+#include "vtkSmartPointer.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
+#include "vtkUnsignedCharArray.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+extern "C"
+{
+#include "precisemc.h"
+}
+
+vtkStandardNewMacro(vtkPreciseMarchingCubes);
+
+//------------------------------------------------------------------------------
+// Helpers around the C API: owning handles, type mapping, progress.
+namespace
+{
+
+struct OptionsDeleter
+{
+  void operator()(pmc_options* o) const { pmc_options_free(o); }
+};
+using OptionsPtr = std::unique_ptr<pmc_options, OptionsDeleter>;
+
+struct MeshDeleter
+{
+  void operator()(pmc_mesh* m) const { pmc_mesh_free(m); }
+};
+using MeshPtr = std::unique_ptr<pmc_mesh, MeshDeleter>;
+
+// The message of the last failed call on this thread, with its status.
+std::string LastError(pmc_status status)
+{
+  std::string message;
+  char buffer[1024];
+  size_t n = pmc_last_error_message(buffer, sizeof(buffer));
+  if (n > 0)
+  {
+    if (n >= sizeof(buffer))
+    {
+      // Truncated: ask again with room for everything.
+      std::vector<char> large(n + 1);
+      pmc_last_error_message(large.data(), large.size());
+      message = large.data();
+    }
+    else
+    {
+      message = buffer;
+    }
+  }
+  const char* name = pmc_status_string(status);
+  std::string result = name ? name : "unknown status";
+  if (!message.empty())
+  {
+    result += ": " + message;
+  }
+  return result;
+}
+
+// Map a VTK array type to the PreciseMC scalar type; false if unsupported.
+bool ScalarTypeFor(int vtkType, pmc_scalar_type& type)
+{
+  switch (vtkType)
+  {
+    case VTK_CHAR:
+      type = std::numeric_limits<char>::is_signed ? PMC_SCALAR_TYPE_I8 : PMC_SCALAR_TYPE_U8;
+      return true;
+    case VTK_SIGNED_CHAR:
+      type = PMC_SCALAR_TYPE_I8;
+      return true;
+    case VTK_UNSIGNED_CHAR:
+      type = PMC_SCALAR_TYPE_U8;
+      return true;
+    case VTK_SHORT:
+      type = PMC_SCALAR_TYPE_I16;
+      return true;
+    case VTK_UNSIGNED_SHORT:
+      type = PMC_SCALAR_TYPE_U16;
+      return true;
+    case VTK_INT:
+      type = PMC_SCALAR_TYPE_I32;
+      return true;
+    case VTK_UNSIGNED_INT:
+      type = PMC_SCALAR_TYPE_U32;
+      return true;
+    case VTK_LONG:
+      type = sizeof(long) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
+      return true;
+    case VTK_UNSIGNED_LONG:
+      type = sizeof(unsigned long) == 8 ? PMC_SCALAR_TYPE_U64 : PMC_SCALAR_TYPE_U32;
+      return true;
+    case VTK_LONG_LONG:
+      type = PMC_SCALAR_TYPE_I64;
+      return true;
+    case VTK_UNSIGNED_LONG_LONG:
+      type = PMC_SCALAR_TYPE_U64;
+      return true;
+    case VTK_ID_TYPE:
+      type = sizeof(vtkIdType) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
+      return true;
+    case VTK_FLOAT:
+      type = PMC_SCALAR_TYPE_F32;
+      return true;
+    case VTK_DOUBLE:
+      type = PMC_SCALAR_TYPE_F64;
+      return true;
+    default:
+      return false;
+  }
+}
+
+// What the progress callback needs: the filter and the part of the whole
+// execution the current call covers.
+struct ProgressState
+{
+  vtkPreciseMarchingCubes* Self;
+  double Base;
+  double Span;
+};
+
+// Called by pmc_extract on the calling thread; a non-zero return aborts.
+int ProgressCallback(void* userData, double fraction)
+{
+  ProgressState* state = static_cast<ProgressState*>(userData);
+  state->Self->UpdateProgress(state->Base + state->Span * fraction);
+  return state->Self->GetAbortExecute() ? 1 : 0;
+}
+
+// Inverse transpose of a 3x3 matrix (row-major), for normals.
+bool InverseTranspose(const double m[3][3], double r[3][3])
+{
+  double inv[3][3];
+  double det = vtkMath::Determinant3x3(m);
+  if (det == 0.0 || !std::isfinite(det))
+  {
+    return false;
+  }
+  vtkMath::Invert3x3(m, inv);
+  vtkMath::Transpose3x3(inv, r);
+  return true;
+}
+
+} // anonymous namespace
+
+//------------------------------------------------------------------------------
+// Construct with a single contour value of 0.0, normals and scalars on,
+// refinement with epsilon 0.01 up to level 5 (rule A1), trilinear topology.
+vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
+{
+  this->ContourValues = vtkContourValues::New();
+  this->ComputeNormals = 1;
+  this->ComputeScalars = 1;
+  this->InterpolateAttributes = 0;
+  this->ComputeLevels = 0;
+  this->ArrayComponent = 0;
+  this->OutputPointsPrecision = vtkAlgorithm::DEFAULT_PRECISION;
+
+  this->Epsilon = 0.01;
+  this->MaxLevel = 5;
+  this->Rule = RULE_A1;
+  this->Topology = TOPOLOGY_TRILINEAR;
+  this->NormalMode = NORMALS_GRADIENT;
+  this->MaxTriangles = 0;
+  this->NumberOfThreads = 0;
+
+  this->NumberOfExecutions = 0;
+  this->ResetStatistics();
+
+  // By default process active point scalars.
+  this->SetInputArrayToProcess(
+    0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS, vtkDataSetAttributes::SCALARS);
+}
+
+//------------------------------------------------------------------------------
+vtkPreciseMarchingCubes::~vtkPreciseMarchingCubes()
+{
+  this->ContourValues->Delete();
+}
+
+//------------------------------------------------------------------------------
+// Overload standard modified time function. If contour values are modified,
+// then this object is modified as well.
+vtkMTimeType vtkPreciseMarchingCubes::GetMTime()
+{
+  vtkMTimeType mTime = this->Superclass::GetMTime();
+  vtkMTimeType mTime2 = this->ContourValues->GetMTime();
+  return (mTime2 > mTime ? mTime2 : mTime);
+}
+
+//------------------------------------------------------------------------------
+void vtkPreciseMarchingCubes::ResetStatistics()
+{
+  this->NumberOfMCTriangles = 0;
+  this->NumberOfRefinedTriangles = 0;
+  this->NumberOfAmbiguousCells = 0;
+  this->NumberOfSkippedCells = 0;
+  this->MaxLevelReached = 0;
+  this->MeanLevel = 0.0;
+  this->NumberOfSamplesEvaluated = 0;
+  this->NumberOfSplitPoints = 0;
+  this->NumberOfProjectionFailures = 0;
+  this->NumberOfFacesAboveEpsilon = 0;
+  this->BudgetReached = false;
+  this->ExecutionTime = 0.0;
+}
+
+//------------------------------------------------------------------------------
+const char* vtkPreciseMarchingCubes::GetRuleAsString()
+{
+  switch (this->Rule)
+  {
+    case RULE_A:
+      return "A";
+    case RULE_A1:
+      return "A1";
+    case RULE_A2:
+      return "A2";
+    case RULE_B:
+      return "B";
+    default:
+      return "Unknown";
+  }
+}
+
+//------------------------------------------------------------------------------
+const char* vtkPreciseMarchingCubes::GetTopologyAsString()
+{
+  return this->Topology == TOPOLOGY_CLASSIC ? "Classic" : "Trilinear";
+}
+
+//------------------------------------------------------------------------------
+const char* vtkPreciseMarchingCubes::GetNormalModeAsString()
+{
+  return this->NormalMode == NORMALS_CENTRAL_DIFFERENCE ? "CentralDifference" : "Gradient";
+}
+
+//------------------------------------------------------------------------------
+int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
+  vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* input = vtkImageData::SafeDownCast(inInfo->Get(vtkDataObject::DATA_OBJECT()));
+  vtkPolyData* output = vtkPolyData::SafeDownCast(outInfo->Get(vtkDataObject::DATA_OBJECT()));
+
+  this->ResetStatistics();
+  if (output == nullptr)
+  {
+    vtkErrorMacro(<< "Output is not a vtkPolyData.");
+    return 1;
+  }
+  output->Initialize();
+  if (input == nullptr)
+  {
+    vtkErrorMacro(<< "Input is not a vtkImageData.");
+    return 1;
+  }
+
+  vtkDebugMacro(<< "Executing precise marching cubes");
+
+  // Check the input: nothing to do on an empty image or without values.
+  vtkIdType numContours = this->ContourValues->GetNumberOfContours();
+  const double* values = this->ContourValues->GetValues();
+  if (input->GetNumberOfPoints() < 1 || numContours < 1)
+  {
+    vtkDebugMacro(<< "Empty input or no contour values");
+    return 1;
+  }
+
+  int association = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+  vtkDataArray* inScalars = this->GetInputArrayToProcess(0, inputVector, association);
+  if (inScalars == nullptr)
+  {
+    vtkErrorMacro(<< "No scalars to contour: the input has no point scalars "
+                  << "(or no array selected with SetInputArrayToProcess())");
+    return 1;
+  }
+  if (association != vtkDataObject::FIELD_ASSOCIATION_POINTS)
+  {
+    vtkErrorMacro(<< "Scalars to contour must be point data, not cell or field data");
+    return 1;
+  }
+  if (inScalars->GetNumberOfTuples() != input->GetNumberOfPoints())
+  {
+    vtkErrorMacro(<< "Scalar array " << (inScalars->GetName() ? inScalars->GetName() : "(unnamed)")
+                  << " has " << inScalars->GetNumberOfTuples() << " tuples for "
+                  << input->GetNumberOfPoints() << " points");
+    return 1;
+  }
+  const int numComps = inScalars->GetNumberOfComponents();
+  if (this->ArrayComponent < 0 || this->ArrayComponent >= numComps)
+  {
+    vtkErrorMacro(<< "ArrayComponent " << this->ArrayComponent << " is out of range: the array "
+                  << (inScalars->GetName() ? inScalars->GetName() : "(unnamed)") << " has "
+                  << numComps << " component(s)");
+    return 1;
+  }
+  pmc_scalar_type scalarType;
+  if (!ScalarTypeFor(inScalars->GetDataType(), scalarType))
+  {
+    vtkErrorMacro(<< "Unsupported scalar type " << inScalars->GetDataTypeAsString()
+                  << ": integer and floating point arrays are supported");
+    return 1;
+  }
+
+  int extent[6];
+  input->GetExtent(extent);
+  int dims[3];
+  input->GetDimensions(dims);
+  if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
+  {
+    vtkErrorMacro(<< "Cannot contour data of dimension != 3 (dimensions " << dims[0] << " x "
+                  << dims[1] << " x " << dims[2] << ")");
+    return 1;
+  }
+
+  // The samples are read in place; only arrays without the standard
+  // (array-of-structures) memory layout are copied first.
+  vtkSmartPointer<vtkDataArray> contiguous = inScalars;
+  if (!inScalars->HasStandardMemoryLayout())
+  {
+    contiguous = vtkSmartPointer<vtkDataArray>::Take(
+      vtkDataArray::CreateDataArray(inScalars->GetDataType()));
+    contiguous->DeepCopy(inScalars);
+  }
+
+  // Geometry: the library works on an axis-aligned grid. With the identity
+  // direction and positive spacing it produces world coordinates directly;
+  // otherwise points are mapped from index space with the image's
+  // IndexToPhysical matrix afterwards (and normals with its inverse
+  // transpose).
+  const double* origin = input->GetOrigin();
+  const double* spacing = input->GetSpacing();
+  vtkMatrix3x3* direction = input->GetDirectionMatrix();
+  bool axisAligned = direction->IsIdentity() && spacing[0] > 0.0 && spacing[1] > 0.0 &&
+    spacing[2] > 0.0;
+  for (int i = 0; i < 3; ++i)
+  {
+    if (!(spacing[i] != 0.0) || !std::isfinite(spacing[i]) || !std::isfinite(origin[i]))
+    {
+      vtkErrorMacro(<< "Invalid image geometry: spacing (" << spacing[0] << ", " << spacing[1]
+                    << ", " << spacing[2] << "), origin (" << origin[0] << ", " << origin[1]
+                    << ", " << origin[2] << ")");
+      return 1;
+    }
+  }
+
+  pmc_volume volume;
+  volume.data = static_cast<const char*>(contiguous->GetVoidPointer(0)) +
+    static_cast<size_t>(this->ArrayComponent) * contiguous->GetDataTypeSize();
+  volume.len = static_cast<uint64_t>(contiguous->GetNumberOfValues()) -
+    static_cast<uint64_t>(this->ArrayComponent);
+  volume.scalar_type = scalarType;
+  for (int i = 0; i < 3; ++i)
+  {
+    volume.dims[i] = static_cast<uint64_t>(dims[i]);
+    volume.origin[i] = axisAligned ? origin[i] : 0.0;
+    volume.spacing[i] = std::fabs(spacing[i]);
+  }
+  volume.strides[0] = numComps;
+  volume.strides[1] = static_cast<int64_t>(numComps) * dims[0];
+  volume.strides[2] = static_cast<int64_t>(numComps) * dims[0] * dims[1];
+
+  // Options shared by all contour values.
+  OptionsPtr options(pmc_options_new());
+  if (!options)
+  {
+    vtkErrorMacro(<< "Cannot create PreciseMC options: " << LastError(PMC_STATUS_OUT_OF_MEMORY));
+    return 1;
+  }
+  bool computeNormals = this->ComputeNormals != 0;
+  const int64_t indexOffset[3] = { extent[0], extent[2], extent[4] };
+  ProgressState progress = { this, 0.0, 1.0 };
+  pmc_status status = PMC_STATUS_OK;
+  const char* failed = nullptr;
+  if ((status = pmc_options_set_epsilon(options.get(), this->Epsilon)) != PMC_STATUS_OK)
+  {
+    failed = "Epsilon";
+  }
+  else if ((status = pmc_options_set_max_level(
+              options.get(), static_cast<uint32_t>(this->MaxLevel))) != PMC_STATUS_OK)
+  {
+    failed = "MaxLevel";
+  }
+  else if ((status = pmc_options_set_rule(options.get(), static_cast<pmc_rule>(this->Rule))) !=
+    PMC_STATUS_OK)
+  {
+    failed = "Rule";
+  }
+  else if ((status = pmc_options_set_topology(
+              options.get(), static_cast<pmc_topology>(this->Topology))) != PMC_STATUS_OK)
+  {
+    failed = "Topology";
+  }
+  else if ((status = pmc_options_set_normals(options.get(),
+              computeNormals ? static_cast<pmc_normals>(this->NormalMode)
+                             : static_cast<pmc_normals>(PMC_NORMALS_NONE))) != PMC_STATUS_OK)
+  {
+    failed = "NormalMode";
+  }
+  else if ((status = pmc_options_set_max_triangles(options.get(), this->MaxTriangles)) !=
+    PMC_STATUS_OK)
+  {
+    failed = "MaxTriangles";
+  }
+  else if ((status = pmc_options_set_threads(
+              options.get(), static_cast<uint32_t>(this->NumberOfThreads))) != PMC_STATUS_OK)
+  {
+    failed = "NumberOfThreads";
+  }
+  else if ((status = pmc_options_set_index_offset(options.get(), indexOffset)) != PMC_STATUS_OK)
+  {
+    failed = "index offset";
+  }
+  else if ((status = pmc_options_set_progress(options.get(), &ProgressCallback, &progress)) !=
+    PMC_STATUS_OK)
+  {
+    failed = "progress callback";
+  }
+  if (failed)
+  {
+    vtkErrorMacro(<< "Invalid " << failed << ": " << LastError(status));
+    return 1;
+  }
+
+  // Extract each contour value in turn.
+  ++this->NumberOfExecutions;
+  std::vector<MeshPtr> meshes;
+  meshes.reserve(static_cast<size_t>(numContours));
+  vtkTypeUInt64 totalPoints = 0;
+  vtkTypeUInt64 totalTriangles = 0;
+  double levelSum = 0.0;
+  auto start = std::chrono::steady_clock::now();
+  this->UpdateProgress(0.0);
+  for (vtkIdType c = 0; c < numContours; ++c)
+  {
+    progress.Base = static_cast<double>(c) / numContours;
+    progress.Span = 1.0 / numContours;
+    pmc_mesh* raw = nullptr;
+    status = pmc_extract(&volume, values[c], options.get(), &raw);
+    MeshPtr mesh(raw);
+    if (status == PMC_STATUS_ABORTED)
+    {
+      vtkDebugMacro(<< "Aborted");
+      this->ResetStatistics();
+      output->Initialize();
+      return 1;
+    }
+    if (status != PMC_STATUS_OK || !mesh)
+    {
+      vtkErrorMacro(<< "PreciseMC extraction failed for contour value " << values[c] << ": "
+                    << LastError(status));
+      this->ResetStatistics();
+      output->Initialize();
+      return 1;
+    }
+    pmc_stats stats;
+    if ((status = pmc_mesh_stats(mesh.get(), &stats)) != PMC_STATUS_OK)
+    {
+      vtkErrorMacro(<< "Cannot read PreciseMC statistics: " << LastError(status));
+      this->ResetStatistics();
+      output->Initialize();
+      return 1;
+    }
+    this->NumberOfMCTriangles += stats.mc_triangles;
+    this->NumberOfRefinedTriangles += stats.output_triangles;
+    this->NumberOfAmbiguousCells += stats.ambiguous_cells;
+    this->NumberOfSkippedCells += stats.skipped_nonfinite_cells;
+    this->MaxLevelReached = std::max(this->MaxLevelReached, static_cast<int>(stats.max_level));
+    levelSum += stats.mean_level * static_cast<double>(stats.output_triangles);
+    this->NumberOfSamplesEvaluated += stats.samples_evaluated;
+    this->NumberOfSplitPoints += stats.split_points;
+    this->NumberOfProjectionFailures += stats.projection_failures;
+    this->NumberOfFacesAboveEpsilon += stats.faces_above_epsilon;
+    this->BudgetReached = this->BudgetReached || stats.budget_reached;
+    totalPoints += pmc_mesh_point_count(mesh.get());
+    totalTriangles += pmc_mesh_triangle_count(mesh.get());
+    meshes.push_back(std::move(mesh));
+  }
+  this->MeanLevel = totalTriangles > 0 ? levelSum / static_cast<double>(totalTriangles) : 0.0;
+  this->ExecutionTime =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (totalPoints > static_cast<vtkTypeUInt64>(VTK_ID_MAX / 4) ||
+    totalTriangles > static_cast<vtkTypeUInt64>(VTK_ID_MAX / 4))
+  {
+    vtkErrorMacro(<< "Output too large for vtkIdType: " << totalPoints << " points, "
+                  << totalTriangles << " triangles");
+    output->Initialize();
+    return 1;
+  }
+  const vtkIdType numPts = static_cast<vtkIdType>(totalPoints);
+  const vtkIdType numTris = static_cast<vtkIdType>(totalTriangles);
+
+  // Index space -> world for the general case: x = origin + D * S * ijk.
+  double indexToWorld[3][3];
+  double normalMatrix[3][3];
+  bool flipWinding = false;
+  if (!axisAligned)
+  {
+    double scaled[3][3];
+    for (int r = 0; r < 3; ++r)
+    {
+      for (int c = 0; c < 3; ++c)
+      {
+        indexToWorld[r][c] = direction->GetElement(r, c) * spacing[c];
+        // The library's normals are in the axis-aligned frame with |spacing|:
+        // map them with the inverse transpose of D * sign(S).
+        scaled[r][c] = direction->GetElement(r, c) * (spacing[c] < 0.0 ? -1.0 : 1.0);
+      }
+    }
+    if (!InverseTranspose(scaled, normalMatrix))
+    {
+      vtkErrorMacro(<< "The direction matrix of the input is singular");
+      output->Initialize();
+      return 1;
+    }
+    // A mirroring transform would turn the triangles inside out: keep the
+    // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
+    flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
+  }
+
+  // Points.
+  vtkNew<vtkPoints> newPts;
+  newPts->SetDataType(
+    this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION ? VTK_DOUBLE : VTK_FLOAT);
+  newPts->SetNumberOfPoints(numPts);
+  vtkSmartPointer<vtkFloatArray> newNormals;
+  if (computeNormals)
+  {
+    newNormals = vtkSmartPointer<vtkFloatArray>::New();
+    newNormals->SetName("Normals");
+    newNormals->SetNumberOfComponents(3);
+    newNormals->SetNumberOfTuples(numPts);
+  }
+  vtkSmartPointer<vtkDataArray> newScalars;
+  if (this->ComputeScalars)
+  {
+    newScalars = vtkSmartPointer<vtkDataArray>::Take(inScalars->NewInstance());
+    newScalars->SetName(inScalars->GetName());
+    newScalars->SetNumberOfComponents(1);
+    newScalars->SetNumberOfTuples(numPts);
+  }
+  vtkNew<vtkIdTypeArray> connectivity;
+  connectivity->SetNumberOfValues(3 * numTris);
+  vtkNew<vtkIdTypeArray> offsets;
+  offsets->SetNumberOfValues(numTris + 1);
+  vtkSmartPointer<vtkUnsignedCharArray> levels;
+  if (this->ComputeLevels)
+  {
+    levels = vtkSmartPointer<vtkUnsignedCharArray>::New();
+    levels->SetName("RefinementLevel");
+    levels->SetNumberOfTuples(numTris);
+  }
+  // Global index coordinates of all output points, for InterpolateAttributes.
+  std::vector<double> indexPoints;
+  if (this->InterpolateAttributes)
+  {
+    indexPoints.resize(3 * static_cast<size_t>(numPts));
+  }
+
+  vtkIdType ptOffset = 0;
+  vtkIdType triOffset = 0;
+  vtkIdType* conn = connectivity->GetPointer(0);
+  vtkIdType* offs = offsets->GetPointer(0);
+  for (vtkIdType c = 0; c < numContours; ++c)
+  {
+    const pmc_mesh* mesh = meshes[c].get();
+    const vtkIdType np = static_cast<vtkIdType>(pmc_mesh_point_count(mesh));
+    const vtkIdType nt = static_cast<vtkIdType>(pmc_mesh_triangle_count(mesh));
+    const double* pts = pmc_mesh_points(mesh);
+    const double* ijk = pmc_mesh_index_points(mesh);
+    const int64_t* tris = pmc_mesh_triangles(mesh);
+    const float* normals = pmc_mesh_normals(mesh);
+    const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh);
+    if ((np > 0 && (!pts || !ijk)) || (nt > 0 && (!tris || !triLevels)) ||
+      (computeNormals && np > 0 && !normals))
+    {
+      vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
+      output->Initialize();
+      return 1;
+    }
+
+    for (vtkIdType i = 0; i < np; ++i)
+    {
+      double x[3];
+      if (axisAligned)
+      {
+        x[0] = pts[3 * i];
+        x[1] = pts[3 * i + 1];
+        x[2] = pts[3 * i + 2];
+      }
+      else
+      {
+        const double* p = ijk + 3 * i;
+        for (int r = 0; r < 3; ++r)
+        {
+          x[r] = origin[r] + indexToWorld[r][0] * p[0] + indexToWorld[r][1] * p[1] +
+            indexToWorld[r][2] * p[2];
+        }
+      }
+      newPts->SetPoint(ptOffset + i, x);
+      if (computeNormals)
+      {
+        float* n = newNormals->GetPointer(3 * (ptOffset + i));
+        const float* m = normals + 3 * i;
+        if (axisAligned)
+        {
+          n[0] = m[0];
+          n[1] = m[1];
+          n[2] = m[2];
+        }
+        else
+        {
+          double v[3];
+          for (int r = 0; r < 3; ++r)
+          {
+            v[r] = normalMatrix[r][0] * m[0] + normalMatrix[r][1] * m[1] + normalMatrix[r][2] * m[2];
+          }
+          vtkMath::Normalize(v);
+          n[0] = static_cast<float>(v[0]);
+          n[1] = static_cast<float>(v[1]);
+          n[2] = static_cast<float>(v[2]);
+        }
+      }
+      if (!indexPoints.empty())
+      {
+        std::copy(ijk + 3 * i, ijk + 3 * i + 3, indexPoints.begin() + 3 * (ptOffset + i));
+      }
+    }
+    if (newScalars)
+    {
+      for (vtkIdType i = 0; i < np; ++i)
+      {
+        newScalars->SetComponent(ptOffset + i, 0, values[c]);
+      }
+    }
+
+    for (vtkIdType t = 0; t < nt; ++t)
+    {
+      const int64_t* tri = tris + 3 * t;
+      vtkIdType* out = conn + 3 * (triOffset + t);
+      out[0] = ptOffset + static_cast<vtkIdType>(tri[0]);
+      out[1] = ptOffset + static_cast<vtkIdType>(tri[flipWinding ? 2 : 1]);
+      out[2] = ptOffset + static_cast<vtkIdType>(tri[flipWinding ? 1 : 2]);
+      offs[triOffset + t] = 3 * (triOffset + t);
+      if (levels)
+      {
+        levels->SetValue(triOffset + t, triLevels[t]);
+      }
+    }
+    ptOffset += np;
+    triOffset += nt;
+    meshes[c].reset(); // release memory as soon as copied
+  }
+  offs[numTris] = 3 * numTris;
+
+  vtkNew<vtkCellArray> newPolys;
+  newPolys->SetData(offsets, connectivity);
+
+  output->SetPoints(newPts);
+  output->SetPolys(newPolys);
+  vtkPointData* outPD = output->GetPointData();
+
+  // Other point data, interpolated trilinearly at every output point.
+  if (this->InterpolateAttributes && numPts > 0)
+  {
+    vtkPointData* inPD = input->GetPointData();
+    vtkNew<vtkPointData> source;
+    for (int a = 0; a < inPD->GetNumberOfArrays(); ++a)
+    {
+      vtkAbstractArray* array = inPD->GetAbstractArray(a);
+      if (array == inScalars || array == nullptr ||
+        array->GetNumberOfTuples() != input->GetNumberOfPoints())
+      {
+        continue;
+      }
+      int idx = source->AddArray(array);
+      for (int attr = 0; attr < vtkDataSetAttributes::NUM_ATTRIBUTES; ++attr)
+      {
+        if (inPD->GetAbstractAttribute(attr) == array)
+        {
+          source->SetActiveAttribute(idx, attr);
+        }
+      }
+    }
+    if (source->GetNumberOfArrays() > 0)
+    {
+      outPD->InterpolateAllocate(source, numPts);
+      vtkNew<vtkIdList> cellPts;
+      cellPts->SetNumberOfIds(8);
+      double weights[8];
+      const vtkIdType sliceSize = static_cast<vtkIdType>(dims[0]) * dims[1];
+      for (vtkIdType i = 0; i < numPts; ++i)
+      {
+        int cell[3];
+        double r[3];
+        for (int d = 0; d < 3; ++d)
+        {
+          double local = indexPoints[3 * i + d] - extent[2 * d];
+          int c0 = static_cast<int>(std::floor(local));
+          c0 = std::max(0, std::min(dims[d] - 2, c0));
+          cell[d] = c0;
+          r[d] = std::max(0.0, std::min(1.0, local - c0));
+        }
+        const vtkIdType base = cell[0] + cell[1] * static_cast<vtkIdType>(dims[0]) +
+          cell[2] * sliceSize;
+        for (int corner = 0; corner < 8; ++corner)
+        {
+          const int di = corner & 1;
+          const int dj = (corner >> 1) & 1;
+          const int dk = (corner >> 2) & 1;
+          cellPts->SetId(corner, base + di + dj * dims[0] + dk * sliceSize);
+          weights[corner] = (di ? r[0] : 1.0 - r[0]) * (dj ? r[1] : 1.0 - r[1]) *
+            (dk ? r[2] : 1.0 - r[2]);
+        }
+        outPD->InterpolatePoint(source, i, cellPts, weights);
+      }
+    }
+  }
+
+  if (newScalars)
+  {
+    int idx = outPD->AddArray(newScalars);
+    outPD->SetActiveAttribute(idx, vtkDataSetAttributes::SCALARS);
+  }
+  if (newNormals)
+  {
+    outPD->SetNormals(newNormals);
+  }
+  if (levels)
+  {
+    output->GetCellData()->AddArray(levels);
+  }
+
+  vtkDebugMacro(<< "Created: " << numPts << " points, " << numTris << " triangles");
+  this->UpdateProgress(1.0);
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+// The whole input is requested for now; splitting the volume into pieces
+// that share a layer of samples is left to the default behaviour.
+int vtkPreciseMarchingCubes::RequestUpdateExtent(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  return this->Superclass::RequestUpdateExtent(request, inputVector, outputVector);
+}
+
+//------------------------------------------------------------------------------
+int vtkPreciseMarchingCubes::FillInputPortInformation(int, vtkInformation* info)
+{
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+//------------------------------------------------------------------------------
+void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
+{
+  this->Superclass::PrintSelf(os, indent);
+
+  this->ContourValues->PrintSelf(os, indent.GetNextIndent());
+
+  os << indent << "Compute Normals: " << (this->ComputeNormals ? "On\n" : "Off\n");
+  os << indent << "Compute Scalars: " << (this->ComputeScalars ? "On\n" : "Off\n");
+  os << indent << "Interpolate Attributes: " << (this->InterpolateAttributes ? "On\n" : "Off\n");
+  os << indent << "Compute Levels: " << (this->ComputeLevels ? "On\n" : "Off\n");
+  os << indent << "ArrayComponent: " << this->ArrayComponent << endl;
+  os << indent << "Output Points Precision: " << this->OutputPointsPrecision << "\n";
+  os << indent << "Epsilon: " << this->Epsilon << "\n";
+  os << indent << "MaxLevel: " << this->MaxLevel << "\n";
+  os << indent << "Rule: " << this->GetRuleAsString() << "\n";
+  os << indent << "Topology: " << this->GetTopologyAsString() << "\n";
+  os << indent << "NormalMode: " << this->GetNormalModeAsString() << "\n";
+  os << indent << "MaxTriangles: " << this->MaxTriangles << "\n";
+  os << indent << "NumberOfThreads: " << this->NumberOfThreads << "\n";
+  os << indent << "NumberOfMCTriangles: " << this->NumberOfMCTriangles << "\n";
+  os << indent << "NumberOfRefinedTriangles: " << this->NumberOfRefinedTriangles << "\n";
+  os << indent << "NumberOfAmbiguousCells: " << this->NumberOfAmbiguousCells << "\n";
+  os << indent << "NumberOfSkippedCells: " << this->NumberOfSkippedCells << "\n";
+  os << indent << "MaxLevelReached: " << this->MaxLevelReached << "\n";
+  os << indent << "MeanLevel: " << this->MeanLevel << "\n";
+  os << indent << "NumberOfSamplesEvaluated: " << this->NumberOfSamplesEvaluated << "\n";
+  os << indent << "NumberOfSplitPoints: " << this->NumberOfSplitPoints << "\n";
+  os << indent << "NumberOfProjectionFailures: " << this->NumberOfProjectionFailures << "\n";
+  os << indent << "NumberOfFacesAboveEpsilon: " << this->NumberOfFacesAboveEpsilon << "\n";
+  os << indent << "BudgetReached: " << (this->BudgetReached ? "true" : "false") << "\n";
+  os << indent << "ExecutionTime: " << this->ExecutionTime << "\n";
+  os << indent << "NumberOfExecutions: " << this->NumberOfExecutions << "\n";
+}

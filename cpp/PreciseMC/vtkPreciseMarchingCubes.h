@@ -1,0 +1,414 @@
+/*=========================================================================
+
+  Program:   PreciseMC
+  Module:    vtkPreciseMarchingCubes.h
+
+  Copyright (c) the PreciseMC authors
+  All rights reserved.
+  Licensed under the MIT or Apache-2.0 license, at your option.
+
+     This software is distributed WITHOUT ANY WARRANTY; without even
+     the implied warranty of MERCHANTABILITY or FITNESS FOR A PARTICULAR
+     PURPOSE.
+
+=========================================================================*/
+/**
+ * @class   vtkPreciseMarchingCubes
+ * @brief   isosurface of a volume that follows the trilinear interpolant
+ *
+ * vtkPreciseMarchingCubes extracts isosurfaces from 3D image data in two
+ * steps, after Allamandri, Cignoni, Montani and Scopigno, "Adaptively
+ * adjusting Marching Cubes output to fit a trilinear reconstruction
+ * filter":
+ *
+ * 1. Marching Cubes runs with the ambiguities of the classic case table
+ *    resolved so that, inside every cell, the mesh has the topology of the
+ *    isosurface of the trilinear interpolant of the samples (Topology
+ *    Trilinear, the default), or with the case table of vtkMarchingCubes
+ *    (Topology Classic).
+ * 2. Every triangle is refined adaptively: sample points on the triangle
+ *    (edge midpoints, centroid; see SetRule()) farther than Epsilon (in
+ *    cell units) from the trilinear isosurface become new vertices, moved
+ *    onto the isosurface along the gradient line, recursively up to
+ *    MaxLevel.
+ *
+ * The output is a welded, consistently oriented triangle mesh: the normal
+ * (p1 - p0) x (p2 - p0) of each triangle points towards lower scalar
+ * values, as in vtkMarchingCubes. With Topology Classic and Epsilon 0 the
+ * output is the surface of vtkMarchingCubes (same points, triangles and
+ * winding; point order differs).
+ *
+ * The interface follows vtkFlyingEdges3D: several contour values may be
+ * given and their surfaces are appended into one output; point normals,
+ * point scalars (the contour value) and the other point data (interpolated
+ * trilinearly at every output point, refined points included) are
+ * optional. A per-triangle "RefinementLevel" cell array records how often
+ * each triangle was subdivided (0 = Marching Cubes triangle).
+ *
+ * Any scalar type is contoured in place (no conversion or copy of the
+ * volume), including one component of a multi-component array (see
+ * SetArrayComponent()). Images with extents that do not start at 0, any
+ * spacing and a direction matrix are supported: points computed for pieces
+ * of a volume that share a layer of samples are bit-identical.
+ *
+ * The work is done by the PreciseMC library (Rust) through its C API, in
+ * parallel over all cores unless NumberOfThreads is set; the output does
+ * not depend on the number of threads.
+ *
+ * @warning
+ * Refinement can multiply the number of triangles by up to 4^MaxLevel in
+ * the worst case; SetMaxTriangles() caps the output (refinement then stops
+ * at the highest level that fits, see GetBudgetReached()).
+ *
+ * @warning
+ * Cells with a NaN or infinite corner sample produce no triangles.
+ *
+ * @warning
+ * The statistics (GetNumberOfMCTriangles() and the like) describe the last
+ * execution, summed (or maximised) over the contour values.
+ *
+ * @sa
+ * vtkMarchingCubes vtkFlyingEdges3D vtkContourFilter vtkImageTransform
+ */
+
+#ifndef vtkPreciseMarchingCubes_h
+#define vtkPreciseMarchingCubes_h
+
+#include "vtkContourValues.h"        // Passes calls through
+#include "vtkPreciseMCModule.h"      // For export macro
+#include "vtkPolyDataAlgorithm.h"
+
+class vtkImageData;
+
+class VTKPRECISEMC_EXPORT vtkPreciseMarchingCubes : public vtkPolyDataAlgorithm
+{
+public:
+  static vtkPreciseMarchingCubes* New();
+  vtkTypeMacro(vtkPreciseMarchingCubes, vtkPolyDataAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  /**
+   * Because we delegate to vtkContourValues.
+   */
+  vtkMTimeType GetMTime() override;
+
+  /**
+   * How ambiguous cells are triangulated (see SetTopology()).
+   */
+  enum TopologyModes
+  {
+    TOPOLOGY_TRILINEAR = 0,
+    TOPOLOGY_CLASSIC = 1
+  };
+
+  /**
+   * Where a triangle is sampled to decide whether to split it (section 3.1
+   * of the paper, see SetRule()).
+   */
+  enum RefinementRules
+  {
+    RULE_A = 0,
+    RULE_A1 = 1,
+    RULE_A2 = 2,
+    RULE_B = 3
+  };
+
+  /**
+   * How normals are computed when ComputeNormals is on (see
+   * SetNormalMode()).
+   */
+  enum NormalModes
+  {
+    NORMALS_GRADIENT = 1,
+    NORMALS_CENTRAL_DIFFERENCE = 2
+  };
+
+  ///@{
+  /**
+   * Set/Get the computation of point normals (unit vectors pointing towards
+   * lower scalar values, like vtkMarchingCubes). How they are computed is
+   * set by NormalMode. Default is on.
+   */
+  vtkSetMacro(ComputeNormals, vtkTypeBool);
+  vtkGetMacro(ComputeNormals, vtkTypeBool);
+  vtkBooleanMacro(ComputeNormals, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the computation of point scalars: every point gets the contour
+   * value of its surface, in an array of the type and name of the input
+   * scalars, made the active scalars of the output. Default is on.
+   */
+  vtkSetMacro(ComputeScalars, vtkTypeBool);
+  vtkGetMacro(ComputeScalars, vtkTypeBool);
+  vtkBooleanMacro(ComputeScalars, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * Indicate whether to interpolate the other point data arrays of the
+   * input. Each output point (refined points included) gets the trilinear
+   * interpolation of the arrays at its position. Default is off.
+   */
+  vtkSetMacro(InterpolateAttributes, vtkTypeBool);
+  vtkGetMacro(InterpolateAttributes, vtkTypeBool);
+  vtkBooleanMacro(InterpolateAttributes, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the generation of the cell array "RefinementLevel" (unsigned
+   * char): the refinement level of each triangle, 0 for triangles straight
+   * from Marching Cubes. Default is off.
+   */
+  vtkSetMacro(ComputeLevels, vtkTypeBool);
+  vtkGetMacro(ComputeLevels, vtkTypeBool);
+  vtkBooleanMacro(ComputeLevels, vtkTypeBool);
+  ///@}
+
+  /**
+   * Set a particular contour value at contour number i. The index i ranges
+   * between 0<=i<NumberOfContours.
+   */
+  void SetValue(int i, double value) { this->ContourValues->SetValue(i, value); }
+
+  /**
+   * Get the ith contour value.
+   */
+  double GetValue(int i) { return this->ContourValues->GetValue(i); }
+
+  /**
+   * Get a pointer to an array of contour values. There will be
+   * GetNumberOfContours() values in the list.
+   */
+  double* GetValues() { return this->ContourValues->GetValues(); }
+
+  /**
+   * Fill a supplied list with contour values. There will be
+   * GetNumberOfContours() values in the list. Make sure you allocate
+   * enough memory to hold the list.
+   */
+  void GetValues(double* contourValues) { this->ContourValues->GetValues(contourValues); }
+
+  /**
+   * Set the number of contours to place into the list. You only really
+   * need to use this method to reduce list size. The method SetValue()
+   * will automatically increase list size as needed.
+   */
+  void SetNumberOfContours(int number) { this->ContourValues->SetNumberOfContours(number); }
+
+  /**
+   * Get the number of contours in the list of contour values.
+   */
+  vtkIdType GetNumberOfContours() { return this->ContourValues->GetNumberOfContours(); }
+
+  /**
+   * Generate numContours equally spaced contour values between specified
+   * range. Contour values will include min/max range values.
+   */
+  void GenerateValues(int numContours, double range[2])
+  {
+    this->ContourValues->GenerateValues(numContours, range);
+  }
+
+  /**
+   * Generate numContours equally spaced contour values between specified
+   * range. Contour values will include min/max range values.
+   */
+  void GenerateValues(int numContours, double rangeStart, double rangeEnd)
+  {
+    this->ContourValues->GenerateValues(numContours, rangeStart, rangeEnd);
+  }
+
+  ///@{
+  /**
+   * Set/get which component of the scalar array to contour on; defaults to
+   * 0. The component is read in place (no copy of the volume).
+   */
+  vtkSetMacro(ArrayComponent, int);
+  vtkGetMacro(ArrayComponent, int);
+  ///@}
+
+  ///@{
+  /**
+   * Set/get the desired precision for the output points. See
+   * vtkAlgorithm::DesiredOutputPrecision for the available settings.
+   * DEFAULT_PRECISION and SINGLE_PRECISION give float points (like
+   * vtkMarchingCubes), DOUBLE_PRECISION gives the points exactly as
+   * computed.
+   */
+  vtkSetClampMacro(OutputPointsPrecision, int, SINGLE_PRECISION, DEFAULT_PRECISION);
+  vtkGetMacro(OutputPointsPrecision, int);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the largest allowed distance, in cell units (edges of a cell of
+   * index space), between a tested sample point of a triangle and the
+   * trilinear isosurface. Triangles with a sample point farther than this
+   * are split. 0 turns refinement off (plain Marching Cubes). Must be
+   * finite and non-negative. Default 0.01.
+   */
+  vtkSetMacro(Epsilon, double);
+  vtkGetMacro(Epsilon, double);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the maximum refinement level (0 = plain Marching Cubes, at
+   * most 10). Default 5.
+   */
+  vtkSetClampMacro(MaxLevel, int, 0, 10);
+  vtkGetMacro(MaxLevel, int);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the refinement rule: RULE_A (edge midpoints only), RULE_A1
+   * (then the centroid when no edge splits; the default), RULE_A2 (then a
+   * displaced centroid) or RULE_B (midpoints and centroid at once).
+   */
+  vtkSetClampMacro(Rule, int, RULE_A, RULE_B);
+  vtkGetMacro(Rule, int);
+  void SetRuleToA() { this->SetRule(RULE_A); }
+  void SetRuleToA1() { this->SetRule(RULE_A1); }
+  void SetRuleToA2() { this->SetRule(RULE_A2); }
+  void SetRuleToB() { this->SetRule(RULE_B); }
+  const char* GetRuleAsString();
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the topology mode: TOPOLOGY_TRILINEAR (the default; inside
+   * every cell the mesh has the topology of the trilinear isosurface,
+   * tunnels included) or TOPOLOGY_CLASSIC (the case table of
+   * vtkMarchingCubes).
+   */
+  vtkSetClampMacro(Topology, int, TOPOLOGY_TRILINEAR, TOPOLOGY_CLASSIC);
+  vtkGetMacro(Topology, int);
+  void SetTopologyToTrilinear() { this->SetTopology(TOPOLOGY_TRILINEAR); }
+  void SetTopologyToClassic() { this->SetTopology(TOPOLOGY_CLASSIC); }
+  const char* GetTopologyAsString();
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get how normals are computed when ComputeNormals is on:
+   * NORMALS_GRADIENT (the exact gradient of the trilinear interpolant at
+   * the point; the default) or NORMALS_CENTRAL_DIFFERENCE (central
+   * differences at the grid points interpolated to the point, like
+   * vtkMarchingCubes).
+   */
+  vtkSetClampMacro(NormalMode, int, NORMALS_GRADIENT, NORMALS_CENTRAL_DIFFERENCE);
+  vtkGetMacro(NormalMode, int);
+  void SetNormalModeToGradient() { this->SetNormalMode(NORMALS_GRADIENT); }
+  void SetNormalModeToCentralDifference() { this->SetNormalMode(NORMALS_CENTRAL_DIFFERENCE); }
+  const char* GetNormalModeAsString();
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get a cap on the number of output triangles of each contour value;
+   * refinement stops at the highest level that fits. 0 (the default) means
+   * no cap.
+   */
+  vtkSetMacro(MaxTriangles, vtkTypeUInt64);
+  vtkGetMacro(MaxTriangles, vtkTypeUInt64);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the number of worker threads; 0 (the default) uses all cores.
+   * The output does not depend on it.
+   */
+  vtkSetClampMacro(NumberOfThreads, int, 0, VTK_INT_MAX);
+  vtkGetMacro(NumberOfThreads, int);
+  ///@}
+
+  ///@{
+  /**
+   * Statistics of the last execution, summed over the contour values
+   * (maximised for GetMaxLevelReached(), averaged over all output
+   * triangles for GetMeanLevel()).
+   * - NumberOfMCTriangles: triangles produced by Marching Cubes.
+   * - NumberOfRefinedTriangles: triangles in the output.
+   * - NumberOfAmbiguousCells: cells whose topology was decided by the
+   *   trilinear test (0 with Topology Classic).
+   * - MaxLevelReached / MeanLevel: refinement level of output triangles.
+   * - NumberOfSamplesEvaluated / NumberOfSplitPoints: sample points tested
+   *   and inserted.
+   * - NumberOfProjectionFailures: sample points for which no point of the
+   *   isosurface was found along the gradient line.
+   * - NumberOfFacesAboveEpsilon: triangles at MaxLevel still farther than
+   *   Epsilon at a sample point.
+   * - BudgetReached: whether MaxTriangles (or the library's safety cap)
+   *   stopped refinement early for some contour value.
+   * - ExecutionTime: wall time of the library calls, seconds.
+   */
+  vtkGetMacro(NumberOfMCTriangles, vtkTypeUInt64);
+  vtkGetMacro(NumberOfRefinedTriangles, vtkTypeUInt64);
+  vtkGetMacro(NumberOfAmbiguousCells, vtkTypeUInt64);
+  vtkGetMacro(NumberOfSkippedCells, vtkTypeUInt64);
+  vtkGetMacro(MaxLevelReached, int);
+  vtkGetMacro(MeanLevel, double);
+  vtkGetMacro(NumberOfSamplesEvaluated, vtkTypeUInt64);
+  vtkGetMacro(NumberOfSplitPoints, vtkTypeUInt64);
+  vtkGetMacro(NumberOfProjectionFailures, vtkTypeUInt64);
+  vtkGetMacro(NumberOfFacesAboveEpsilon, vtkTypeUInt64);
+  vtkGetMacro(BudgetReached, bool);
+  vtkGetMacro(ExecutionTime, double);
+  ///@}
+
+  /**
+   * The number of times RequestData() ran and reached the library, for
+   * checking that an unchanged pipeline does not re-execute.
+   */
+  vtkGetMacro(NumberOfExecutions, vtkTypeUInt64);
+
+protected:
+  vtkPreciseMarchingCubes();
+  ~vtkPreciseMarchingCubes() override;
+
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+
+  void ResetStatistics();
+
+  vtkContourValues* ContourValues;
+  vtkTypeBool ComputeNormals;
+  vtkTypeBool ComputeScalars;
+  vtkTypeBool InterpolateAttributes;
+  vtkTypeBool ComputeLevels;
+  int ArrayComponent;
+  int OutputPointsPrecision;
+
+  double Epsilon;
+  int MaxLevel;
+  int Rule;
+  int Topology;
+  int NormalMode;
+  vtkTypeUInt64 MaxTriangles;
+  int NumberOfThreads;
+
+  vtkTypeUInt64 NumberOfMCTriangles;
+  vtkTypeUInt64 NumberOfRefinedTriangles;
+  vtkTypeUInt64 NumberOfAmbiguousCells;
+  vtkTypeUInt64 NumberOfSkippedCells;
+  int MaxLevelReached;
+  double MeanLevel;
+  vtkTypeUInt64 NumberOfSamplesEvaluated;
+  vtkTypeUInt64 NumberOfSplitPoints;
+  vtkTypeUInt64 NumberOfProjectionFailures;
+  vtkTypeUInt64 NumberOfFacesAboveEpsilon;
+  bool BudgetReached;
+  double ExecutionTime;
+  vtkTypeUInt64 NumberOfExecutions;
+
+private:
+  vtkPreciseMarchingCubes(const vtkPreciseMarchingCubes&) = delete;
+  void operator=(const vtkPreciseMarchingCubes&) = delete;
+};
+
+#endif

@@ -1,0 +1,205 @@
+/*=========================================================================
+
+  Program:   PreciseMC
+  Module:    TestPreciseMarchingCubesPipeline.cxx
+
+  Pipeline behaviour of vtkPreciseMarchingCubes: an unchanged pipeline does
+  not re-execute and a changed property (or contour value) does; aborting
+  from a ProgressEvent observer stops the run with an empty output; errors
+  (no scalars, bad ArrayComponent, NaN epsilon, unsupported dimension) are
+  reported through vtkErrorMacro with an empty output, and the filter works
+  again afterwards. PrintSelf runs.
+
+=========================================================================*/
+#include "vtkPreciseMarchingCubes.h"
+
+#include "PreciseMCTestUtilities.h"
+
+#include "vtkRTAnalyticSource.h"
+
+#include <cstdlib>
+#include <sstream>
+
+namespace
+{
+
+int Failures = 0;
+
+void Check(bool condition, const std::string& what)
+{
+  std::cout << (condition ? "ok " : "FAIL ") << what << "\n";
+  if (!condition)
+  {
+    ++Failures;
+  }
+}
+
+// Sets the filter's abort flag at the first progress event.
+class AbortOnProgress : public vtkCommand
+{
+public:
+  static AbortOnProgress* New() { return new AbortOnProgress; }
+  void Execute(vtkObject* caller, unsigned long, void* callData) override
+  {
+    ++this->Calls;
+    const double progress = callData ? *static_cast<double*>(callData) : 0.0;
+    if (this->Enabled && progress > 0.0)
+    {
+      static_cast<vtkAlgorithm*>(caller)->SetAbortExecute(1);
+    }
+  }
+  bool Enabled = true;
+  int Calls = 0;
+};
+
+} // anonymous namespace
+
+int main(int, char*[])
+{
+  vtkNew<vtkRTAnalyticSource> wavelet;
+  wavelet->SetWholeExtent(-16, 16, -16, 16, -16, 16);
+
+  vtkNew<vtkPreciseMarchingCubes> pmc;
+  pmc->SetInputConnection(wavelet->GetOutputPort());
+  pmc->SetValue(0, 160.0);
+  vtkNew<pmctest::ErrorObserver> errors;
+  pmc->AddObserver(vtkCommand::ErrorEvent, errors);
+  pmc->AddObserver(vtkCommand::WarningEvent, errors);
+
+  // Execution counting.
+  pmc->Update();
+  const vtkIdType triangles = pmc->GetOutput()->GetNumberOfPolys();
+  Check(pmc->GetNumberOfExecutions() == 1 && triangles > 0, "first update executes");
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 1, "unchanged pipeline does not re-execute");
+  pmc->SetEpsilon(pmc->GetEpsilon());
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 1, "setting the same epsilon does not re-execute");
+  pmc->SetEpsilon(0.002);
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 2 &&
+      pmc->GetOutput()->GetNumberOfPolys() >= triangles,
+    "changing epsilon re-executes (smaller epsilon, at least as many triangles)");
+  pmc->SetValue(0, 150.0);
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 3, "changing a contour value re-executes");
+  pmc->SetMaxLevel(12);
+  Check(pmc->GetMaxLevel() == 10, "MaxLevel is clamped to 10");
+  pmc->SetRule(7);
+  Check(pmc->GetRule() == vtkPreciseMarchingCubes::RULE_B, "Rule is clamped");
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 4, "changing MaxLevel and Rule re-executes");
+  wavelet->SetMaximum(300.0);
+  pmc->Update();
+  Check(pmc->GetNumberOfExecutions() == 5, "a modified source re-executes");
+
+  // Statistics.
+  Check(pmc->GetNumberOfRefinedTriangles() ==
+      static_cast<vtkTypeUInt64>(pmc->GetOutput()->GetNumberOfPolys()) &&
+      pmc->GetNumberOfMCTriangles() > 0 &&
+      pmc->GetNumberOfMCTriangles() <= pmc->GetNumberOfRefinedTriangles() &&
+      pmc->GetMaxLevelReached() <= 10 && pmc->GetMeanLevel() >= 0.0 &&
+      pmc->GetMeanLevel() <= pmc->GetMaxLevelReached(),
+    "statistics are consistent with the output");
+
+  // MaxTriangles caps the output.
+  pmc->SetEpsilon(1e-4);
+  pmc->SetMaxTriangles(pmc->GetNumberOfMCTriangles() + 10);
+  pmc->Update();
+  Check(pmc->GetBudgetReached() &&
+      static_cast<vtkTypeUInt64>(pmc->GetOutput()->GetNumberOfPolys()) <=
+        pmc->GetNumberOfMCTriangles() + 10,
+    "MaxTriangles caps the output and sets BudgetReached");
+  pmc->SetMaxTriangles(0);
+  pmc->SetEpsilon(0.01);
+  pmc->SetMaxLevel(5);
+  pmc->SetRuleToA1();
+
+  // Abort from a progress observer.
+  vtkNew<AbortOnProgress> abort;
+  unsigned long tag = pmc->AddObserver(vtkCommand::ProgressEvent, abort);
+  pmc->Modified();
+  pmc->Update();
+  Check(abort->Calls > 0 && pmc->GetOutput()->GetNumberOfPoints() == 0 &&
+      pmc->GetOutput()->GetNumberOfPolys() == 0 && errors->Errors == 0,
+    "abort from a ProgressEvent observer gives an empty output without error");
+  pmc->RemoveObserver(tag);
+  pmc->SetAbortExecute(0);
+  pmc->Modified();
+  pmc->Update();
+  Check(pmc->GetOutput()->GetNumberOfPolys() > 0, "the filter runs again after an abort");
+
+  // NaN epsilon: the C API rejects it.
+  errors->Reset();
+  pmc->SetEpsilon(std::numeric_limits<double>::quiet_NaN());
+  pmc->Update();
+  Check(errors->Errors > 0 && pmc->GetOutput()->GetNumberOfPoints() == 0 &&
+      errors->LastMessage.find("psilon") != std::string::npos,
+    "NaN epsilon: error (" + errors->LastMessage.substr(0, 160) + ") and empty output");
+  pmc->SetEpsilon(0.01);
+  errors->Reset();
+  pmc->Update();
+  Check(errors->Errors == 0 && pmc->GetOutput()->GetNumberOfPolys() > 0,
+    "the filter recovers after an error");
+
+  // No scalars.
+  {
+    vtkNew<vtkImageData> image;
+    image->SetDimensions(5, 5, 5);
+    vtkNew<vtkPreciseMarchingCubes> f;
+    f->SetInputData(image);
+    f->SetValue(0, 1.0);
+    vtkNew<pmctest::ErrorObserver> obs;
+    f->AddObserver(vtkCommand::ErrorEvent, obs);
+    f->Update();
+    Check(obs->Errors > 0 && f->GetOutput()->GetNumberOfPoints() == 0,
+      "no scalars: error (" + obs->LastMessage.substr(0, 120) + ") and empty output");
+  }
+
+  // A 2-component array with a bad ArrayComponent.
+  {
+    const int dims[3] = { 6, 6, 6 };
+    auto image = pmctest::RandomVolume(VTK_FLOAT, dims, 0, 1, 3, 2);
+    vtkNew<vtkPreciseMarchingCubes> f;
+    f->SetInputData(image);
+    f->SetValue(0, 0.5);
+    f->SetArrayComponent(2);
+    vtkNew<pmctest::ErrorObserver> obs;
+    f->AddObserver(vtkCommand::ErrorEvent, obs);
+    f->Update();
+    Check(obs->Errors > 0 && f->GetOutput()->GetNumberOfPoints() == 0,
+      "ArrayComponent 2 of 2: error (" + obs->LastMessage.substr(0, 120) + ") and empty output");
+    obs->Reset();
+    f->SetArrayComponent(1);
+    f->Update();
+    Check(obs->Errors == 0 && f->GetOutput()->GetNumberOfPolys() > 0, "ArrayComponent 1 of 2 works");
+  }
+
+  // A 2D image.
+  {
+    const int dims[3] = { 6, 6, 1 };
+    auto image = pmctest::RandomVolume(VTK_FLOAT, dims, 0, 1, 3);
+    vtkNew<vtkPreciseMarchingCubes> f;
+    f->SetInputData(image);
+    f->SetValue(0, 0.5);
+    vtkNew<pmctest::ErrorObserver> obs;
+    f->AddObserver(vtkCommand::ErrorEvent, obs);
+    f->Update();
+    Check(obs->Errors > 0 && f->GetOutput()->GetNumberOfPoints() == 0,
+      "2D image: error and empty output");
+  }
+
+  // PrintSelf.
+  std::ostringstream os;
+  pmc->Print(os);
+  Check(os.str().find("Epsilon: 0.01") != std::string::npos &&
+      os.str().find("Topology: Trilinear") != std::string::npos,
+    "PrintSelf prints the properties");
+
+  if (Failures)
+  {
+    std::cerr << Failures << " check(s) failed\n";
+    return EXIT_FAILURE;
+  }
+  return EXIT_SUCCESS;
+}
