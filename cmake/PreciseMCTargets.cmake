@@ -1,0 +1,35 @@
+# Defines the imported targets of PreciseMC. Used by the top-level
+# CMakeLists.txt (build tree) and installed next to PreciseMCConfig.cmake.
+#
+#   precisemc_define_targets(<prefix> <library dir> <include dir> <native libs> [GLOBAL])
+#
+# creates <prefix>precisemc (shared library) and <prefix>precisemc_static
+# (static library, linking the native libraries Rust's standard library
+# needs).
+
+function(precisemc_define_targets prefix libdir incdir native_libs)
+  set(_global ${ARGN})
+  add_library(${prefix}precisemc SHARED IMPORTED ${_global})
+  add_library(${prefix}precisemc_static STATIC IMPORTED ${_global})
+  set(_shared "${libdir}/${CMAKE_SHARED_LIBRARY_PREFIX}precisemc${CMAKE_SHARED_LIBRARY_SUFFIX}")
+  if(WIN32)
+    set(_static "${libdir}/precisemc.lib")
+    set_target_properties(${prefix}precisemc PROPERTIES
+      IMPORTED_LOCATION "${libdir}/precisemc.dll"
+      IMPORTED_IMPLIB "${libdir}/precisemc.dll.lib")
+  else()
+    set(_static "${libdir}/libprecisemc.a")
+    # Cargo's cdylib has no SONAME: link by name so that the executable
+    # records "libprecisemc.so", not the path it was linked from.
+    set_target_properties(${prefix}precisemc PROPERTIES
+      IMPORTED_LOCATION "${_shared}"
+      IMPORTED_NO_SONAME TRUE)
+  endif()
+  set_target_properties(${prefix}precisemc PROPERTIES
+    INTERFACE_INCLUDE_DIRECTORIES "${incdir}")
+  set_target_properties(${prefix}precisemc_static PROPERTIES
+    IMPORTED_LOCATION "${_static}"
+    IMPORTED_LINK_INTERFACE_LANGUAGES "C"
+    INTERFACE_INCLUDE_DIRECTORIES "${incdir}"
+    INTERFACE_LINK_LIBRARIES "${native_libs}")
+endfunction()

@@ -1,0 +1,109 @@
+//! `pmc_extract`: the one entry point that runs an extraction.
+
+use std::ops::ControlFlow;
+
+use super::mesh::{into_handle, pmc_mesh};
+use super::options::{pmc_options, OptionsData};
+use super::panic::{status_boundary, Failure};
+use super::status::PmcStatus;
+use super::volume::{core_volume, pmc_volume};
+use crate::Error;
+
+fn failure(e: Error) -> Failure {
+    let status = match e {
+        Error::Aborted => PmcStatus::Aborted,
+        Error::OutOfMemory(_) => PmcStatus::OutOfMemory,
+        _ => PmcStatus::InvalidArgument,
+    };
+    Failure {
+        status,
+        message: e.to_string(),
+    }
+}
+
+/// Extracts the isosurface `isovalue` of `volume`: Marching Cubes with the
+/// chosen topology, then adaptive refinement of every triangle onto the
+/// trilinear isosurface (see `pmc_options`).
+///
+/// `options` may be `NULL` for the defaults (see `pmc_options_new`). On
+/// success returns `PMC_STATUS_OK` and stores in `*out_mesh` a new mesh
+/// owned by the caller (release it with `pmc_mesh_free`). On failure
+/// stores `NULL` in `*out_mesh` (when `out_mesh` is not `NULL`), records a
+/// message for `pmc_last_error_message`, and returns:
+///
+/// - `PMC_STATUS_NULL_ARGUMENT` if `volume`, `volume->data` or `out_mesh`
+///   is `NULL`;
+/// - `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume (see
+///   `pmc_volume`), an isovalue that is NaN or infinite, or an index
+///   offset out of range;
+/// - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
+/// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed.
+///
+/// The samples are read only during the call. The output does not depend
+/// on the thread count, and pieces of a volume that share a layer of
+/// samples give bit-identical points on it (see
+/// `pmc_options_set_index_offset`). Samples that are NaN or infinite skip
+/// their cells. Thread-safe: concurrent calls may share `volume` and
+/// `options`.
+///
+/// # Safety
+///
+/// `volume` must be `NULL` or point to a `pmc_volume` whose `data` is
+/// `NULL` or readable for `len` elements of `scalar_type`, not written
+/// during the call; `options` must be `NULL` or a live handle from
+/// `pmc_options_new`; `out_mesh` must be `NULL` or writable.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_extract(
+    volume: *const pmc_volume,
+    isovalue: f64,
+    options: *const pmc_options,
+    out_mesh: *mut *mut pmc_mesh,
+) -> PmcStatus {
+    status_boundary(|| {
+        if out_mesh.is_null() {
+            return Err(Failure::null("out_mesh"));
+        }
+        // SAFETY: `out_mesh` is non-null and writable per the contract.
+        unsafe { out_mesh.write(std::ptr::null_mut()) };
+        // SAFETY: per the contract, `volume` is NULL or points to a volume.
+        let v = unsafe { volume.as_ref() }.ok_or(Failure::null("volume"))?;
+        let defaults;
+        // SAFETY: per the contract, `options` is NULL or a live handle.
+        let opts = match unsafe { OptionsData::from_handle(options) } {
+            Some(o) => o,
+            None => {
+                defaults = OptionsData::default();
+                &defaults
+            }
+        };
+        // SAFETY: per the contract, `data` is NULL or readable for `len`
+        // elements during this call.
+        let volume = unsafe { core_volume(v, opts.index_offset)? };
+        let mut last = 0.0f64;
+        let mut stopped = false;
+        let mut progress = |fraction: f64| {
+            let Some(cb) = opts.progress else {
+                return ControlFlow::Continue(());
+            };
+            // Once the callback asked to stop it is not called again.
+            if stopped {
+                return ControlFlow::Break(());
+            }
+            // Reported values never decrease, whatever the passes do.
+            last = fraction.clamp(last, 1.0);
+            // SAFETY: the caller guarantees the callback may be called
+            // with its user data during extractions.
+            stopped = unsafe { cb(opts.user_data, last) } != 0;
+            if stopped {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        let mesh = crate::extract_with_progress(&volume, isovalue, &opts.core, &mut progress)
+            .map_err(failure)?;
+        // SAFETY: as above.
+        unsafe { out_mesh.write(into_handle(mesh)) };
+        Ok(())
+    })
+}

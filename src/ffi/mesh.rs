@@ -1,0 +1,284 @@
+//! `pmc_mesh`: the opaque result of an extraction, and its statistics.
+
+use super::panic::{status_boundary, value_boundary, Failure};
+use super::status::PmcStatus;
+use crate::{Mesh, Stats};
+
+/// An extracted triangle mesh (opaque), owned by the caller from a
+/// successful `pmc_extract` until `pmc_mesh_free`.
+///
+/// The mesh is welded (shared points appear once) and consistently
+/// oriented: the normal of triangle `(p0, p1, p2)`, `(p1 - p0) x (p2 - p0)`,
+/// points towards lower sample values, as in `vtkMarchingCubes`.
+///
+/// Arrays returned by the accessors are owned by the mesh: valid until
+/// `pmc_mesh_free`, read-only, and `NULL` when empty. A mesh is immutable,
+/// so any number of threads may read it concurrently.
+pub struct pmc_mesh {
+    _private: [u8; 0],
+}
+
+/// Wraps a core mesh into a new handle owned by the caller.
+pub(crate) fn into_handle(mesh: Mesh) -> *mut pmc_mesh {
+    Box::into_raw(Box::new(mesh)).cast()
+}
+
+/// The mesh behind a handle, `None` for `NULL`.
+///
+/// # Safety
+///
+/// `p` must be `NULL` or a live handle from `pmc_extract`.
+unsafe fn mesh<'a>(p: *const pmc_mesh) -> Option<&'a Mesh> {
+    // SAFETY: a non-null handle came from `into_handle` and is live.
+    unsafe { p.cast::<Mesh>().as_ref() }
+}
+
+/// `NULL` for an empty slice, else its first element.
+fn ptr_or_null<T, U>(v: &[T]) -> *const U {
+    if v.is_empty() {
+        std::ptr::null()
+    } else {
+        v.as_ptr().cast()
+    }
+}
+
+/// Counters and timings of one extraction, filled by `pmc_mesh_stats`.
+/// Counts are exact; times are wall-clock seconds.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct pmc_stats {
+    /// Cells in the volume, `(dims[0]-1)(dims[1]-1)(dims[2]-1)`.
+    pub cells: u64,
+    /// Triangles produced by Marching Cubes, before refinement.
+    pub mc_triangles: u64,
+    /// Triangles in the output (= `pmc_mesh_triangle_count`).
+    pub output_triangles: u64,
+    /// Points in the output (= `pmc_mesh_point_count`).
+    pub output_points: u64,
+    /// Cells whose topology was decided by the trilinear test; 0 with
+    /// `PMC_TOPOLOGY_CLASSIC`.
+    pub ambiguous_cells: u64,
+    /// Cells skipped because a corner sample is NaN or infinite.
+    pub skipped_nonfinite_cells: u64,
+    /// Sample points tested against the ideal surface.
+    pub samples_evaluated: u64,
+    /// Sample points that were inserted as split points.
+    pub split_points: u64,
+    /// Sample points for which no point of the ideal surface was found along
+    /// the gradient line inside the cell (not split).
+    pub projection_failures: u64,
+    /// Output triangles at the maximum level that still had a sample point
+    /// farther than epsilon.
+    pub faces_above_epsilon: u64,
+    /// Highest refinement level of an output triangle.
+    pub max_level: u32,
+    /// The refinement level actually used (below the requested max level
+    /// when the triangle cap was reached).
+    pub effective_max_level: u32,
+    /// Mean refinement level over output triangles.
+    pub mean_level: f64,
+    /// 1 if the triangle cap stopped refinement below the requested max
+    /// level, else 0.
+    pub budget_reached: u8,
+    /// Wall time spent in Marching Cubes, seconds.
+    pub time_mc: f64,
+    /// Wall time spent in refinement, seconds.
+    pub time_refine: f64,
+    /// Wall time spent welding and assembling the output, seconds.
+    pub time_assemble: f64,
+    /// Wall time spent on normals, seconds.
+    pub time_normals: f64,
+    /// Total wall time of the extraction, seconds.
+    pub time_total: f64,
+}
+
+impl From<&Stats> for pmc_stats {
+    fn from(s: &Stats) -> Self {
+        // Destructured so that a new core field fails to compile here.
+        let Stats {
+            cells,
+            mc_triangles,
+            output_triangles,
+            output_points,
+            ambiguous_cells,
+            skipped_nonfinite_cells,
+            max_level,
+            mean_level,
+            samples_evaluated,
+            split_points,
+            projection_failures,
+            faces_above_epsilon,
+            budget_reached,
+            effective_max_level,
+            time_mc,
+            time_refine,
+            time_assemble,
+            time_normals,
+            time_total,
+        } = s.clone();
+        pmc_stats {
+            cells,
+            mc_triangles,
+            output_triangles,
+            output_points,
+            ambiguous_cells,
+            skipped_nonfinite_cells,
+            samples_evaluated,
+            split_points,
+            projection_failures,
+            faces_above_epsilon,
+            max_level,
+            effective_max_level,
+            mean_level,
+            budget_reached: budget_reached as u8,
+            time_mc,
+            time_refine,
+            time_assemble,
+            time_normals,
+            time_total,
+        }
+    }
+}
+
+/// Number of points; 0 for `NULL`.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_point_count(mesh: *const pmc_mesh) -> u64 {
+    // SAFETY: forwarded contract.
+    value_boundary(0, || {
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.points.len() as u64)
+    })
+}
+
+/// Number of triangles; 0 for `NULL`.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_triangle_count(mesh: *const pmc_mesh) -> u64 {
+    // SAFETY: forwarded contract.
+    value_boundary(0, || {
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.triangles.len() as u64)
+    })
+}
+
+/// Point positions in world coordinates: `3 * pmc_mesh_point_count`
+/// doubles, x, y, z per point. `NULL` for a `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_points(mesh: *const pmc_mesh) -> *const f64 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.points))
+    })
+}
+
+/// The same points in continuous global index space (sample units, the
+/// index offset included): `3 * pmc_mesh_point_count` doubles. Useful to
+/// interpolate other point data of the volume trilinearly. `NULL` for a
+/// `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_index_points(mesh: *const pmc_mesh) -> *const f64 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.index_points))
+    })
+}
+
+/// Triangles: `3 * pmc_mesh_triangle_count` zero-based point indices, each
+/// in `[0, pmc_mesh_point_count)`. `NULL` for a `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_triangles(mesh: *const pmc_mesh) -> *const i64 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract. The core stores `u64` indices below
+        // the point count (< 2^63), which read the same as `i64`.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.triangles))
+    })
+}
+
+/// Unit normals per point, pointing towards lower sample values:
+/// `3 * pmc_mesh_point_count` floats; (0, 0, 0) where the gradient
+/// vanishes or is not finite. `NULL` when normals were not requested
+/// (`PMC_NORMALS_NONE`) and for a `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_normals(mesh: *const pmc_mesh) -> *const f32 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.normals))
+    })
+}
+
+/// Refinement level per triangle (0 = a Marching Cubes triangle):
+/// `pmc_mesh_triangle_count` bytes. `NULL` for a `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_triangle_levels(mesh: *const pmc_mesh) -> *const u8 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.levels))
+    })
+}
+
+/// Copies the statistics of the extraction that produced `mesh` into
+/// `*out`.
+///
+/// Returns `PMC_STATUS_NULL_ARGUMENT` (nothing written) if `mesh` or `out`
+/// is `NULL`.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`; `out` must
+/// be `NULL` or valid for writing a `pmc_stats`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_stats) -> PmcStatus {
+    status_boundary(|| {
+        // SAFETY: forwarded contract.
+        let m = unsafe { self::mesh(mesh) }.ok_or(Failure::null("mesh"))?;
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: `out` is non-null and writable per the contract;
+        // `write_unaligned` tolerates any alignment.
+        unsafe { out.write_unaligned(pmc_stats::from(&m.stats)) };
+        Ok(())
+    })
+}
+
+/// Releases a mesh and all its arrays. `NULL` is accepted and ignored.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a handle from `pmc_extract` not yet freed; it
+/// and every array obtained from it must not be used afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_free(mesh: *mut pmc_mesh) {
+    value_boundary((), || {
+        if !mesh.is_null() {
+            // SAFETY: per the contract, `mesh` came from `into_handle` and
+            // is freed once.
+            drop(unsafe { Box::from_raw(mesh.cast::<Mesh>()) });
+        }
+    })
+}

@@ -1,0 +1,192 @@
+#!/usr/bin/env bash
+# C API tests: builds the crate (release), then builds and runs the C and
+# C++ test programs against it
+#   1. normally, linked with the shared library,
+#   2. with -fsanitize=address,undefined on the C side, linked with the
+#      static library (LeakSanitizer on),
+#   3. under valgrind --leak-check=full, linked with the static library,
+# then tests the CMake package (install tree, build tree, pkg-config).
+#
+# Usage: bash tests/c/run.sh        (from anywhere; idempotent)
+# Env:   CARGO_TARGET_DIR           cargo's target directory (default: <crate>/target)
+#        PMC_SKIP_VALGRIND=1        skip the valgrind pass
+#        PMC_SKIP_CMAKE=1           skip the CMake package tests
+#        PMC_TEST_SEED=<n>          seed of test_random
+#
+# Prints "c-api: N passed, M failed" last and exits non-zero on any failure.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+TARGET_DIR=${CARGO_TARGET_DIR:-$ROOT/target}
+LIB_DIR=$TARGET_DIR/release
+OUT=$TARGET_DIR/c-tests
+LOGS=$OUT/logs
+
+passed=0
+failed=0
+failed_names=()
+
+log() { printf '%s\n' "$*" >&2; }
+
+# Runs one test: run_test NAME COMMAND... (output in $LOGS/NAME.log).
+run_test() {
+    local name=$1
+    shift
+    local logfile=$LOGS/$name.log
+    if "$@" >"$logfile" 2>&1; then
+        passed=$((passed + 1))
+        log "PASS $name"
+    else
+        failed=$((failed + 1))
+        failed_names+=("$name")
+        log "FAIL $name (log: $logfile)"
+        tail -n 30 "$logfile" >&2 || true
+    fi
+}
+
+finish() {
+    if ((failed > 0)); then
+        log "failed: ${failed_names[*]}"
+    fi
+    echo "c-api: $passed passed, $failed failed"
+    if ((failed > 0)); then exit 1; fi
+    exit 0
+}
+
+# --- Debian packages ----------------------------------------------------------
+need=()
+for pkg in gcc g++ make cmake pkg-config valgrind; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if ((${#need[@]} > 0)); then
+    log "installing: ${need[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    if ! apt-get install -y --no-install-recommends "${need[@]}" >&2; then
+        apt-get update >&2
+        apt-get install -y --no-install-recommends "${need[@]}" >&2
+    fi
+fi
+
+# --- the crate ----------------------------------------------------------------
+mkdir -p "$OUT/bin" "$LOGS"
+rm -f "$LOGS"/*.log
+log "cargo build --release --lib"
+(cd "$ROOT" && cargo build --release --lib >&2)
+for f in libprecisemc.a libprecisemc.so; do
+    [[ -f $LIB_DIR/$f ]] || { log "missing $LIB_DIR/$f"; exit 1; }
+done
+
+CWARN=(-std=c99 -Wall -Wextra -Wpedantic -Werror)
+CXXWARN=(-std=c++11 -Wall -Wextra -Wpedantic -Werror)
+INC=(-I"$ROOT/include" -I"$ROOT/tests/c")
+# The native libraries of the Rust static library (cargo rustc -- --print
+# native-static-libs), as in cmake/PreciseMCCargo.cmake.
+NATIVE=(-lgcc_s -lutil -lrt -lpthread -lm -ldl)
+SHARED=(-L"$LIB_DIR" -lprecisemc -Wl,-rpath,"$LIB_DIR" -lm)
+STATIC=("$LIB_DIR/libprecisemc.a" "${NATIVE[@]}")
+SAN=(-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+PROGRAMS=(test_extract test_errors test_progress test_random)
+
+build() { # build OUTPUT COMPILER FLAGS... (compile errors are test failures)
+    local out=$1
+    shift
+    "$@" -o "$out"
+}
+
+# --- compile-only checks --------------------------------------------------------
+for std in c99 c11; do
+    run_test "header_alone_$std" gcc -std=$std -Wall -Wextra -Wpedantic -Werror \
+        -I"$ROOT/include" -c "$ROOT/tests/c/header_alone.c" -o "$OUT/bin/header_alone_$std.o"
+done
+run_test header_alone_cxx11 g++ "${CXXWARN[@]}" -I"$ROOT/include" -x c++ \
+    -c "$ROOT/tests/c/header_alone.c" -o "$OUT/bin/header_alone_cxx.o"
+
+# --- 1. normal, shared library ----------------------------------------------------
+for p in "${PROGRAMS[@]}"; do
+    run_test "build_$p" build "$OUT/bin/$p" gcc "${CWARN[@]}" -O1 -g "${INC[@]}" \
+        "$ROOT/tests/c/$p.c" "${SHARED[@]}"
+    [[ -x $OUT/bin/$p ]] && run_test "run_$p" "$OUT/bin/$p"
+done
+run_test build_test_cxx build "$OUT/bin/test_cxx" g++ "${CXXWARN[@]}" -O1 -g "${INC[@]}" \
+    "$ROOT/tests/c/test_cxx.cpp" "${SHARED[@]}"
+[[ -x $OUT/bin/test_cxx ]] && run_test run_test_cxx "$OUT/bin/test_cxx"
+
+# --- 2. AddressSanitizer + UndefinedBehaviorSanitizer, static library -----------
+# LeakSanitizer is on: the library frees everything it allocates (thread
+# locals included), so a leak is a real failure.
+export ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+for p in "${PROGRAMS[@]}"; do
+    run_test "build_asan_$p" build "$OUT/bin/asan_$p" gcc "${CWARN[@]}" -O1 -g "${SAN[@]}" \
+        "${INC[@]}" "$ROOT/tests/c/$p.c" "${STATIC[@]}"
+    [[ -x $OUT/bin/asan_$p ]] && run_test "run_asan_$p" "$OUT/bin/asan_$p"
+done
+run_test build_asan_test_cxx build "$OUT/bin/asan_test_cxx" g++ "${CXXWARN[@]}" -O1 -g \
+    "${SAN[@]}" "${INC[@]}" "$ROOT/tests/c/test_cxx.cpp" "${STATIC[@]}"
+[[ -x $OUT/bin/asan_test_cxx ]] && run_test run_asan_test_cxx "$OUT/bin/asan_test_cxx"
+unset ASAN_OPTIONS UBSAN_OPTIONS
+
+# --- 3. valgrind, static library ------------------------------------------------------
+if [[ ${PMC_SKIP_VALGRIND:-0} != 1 ]]; then
+    # "Possibly lost" blocks are reported but not errors: rayon's worker
+    # threads finish exiting after pmc_extract returns, and those still
+    # running at process exit hold their thread-local blocks.
+    VG=(valgrind --leak-check=full --errors-for-leak-kinds=definite,indirect
+        --error-exitcode=1 --quiet)
+    for p in "${PROGRAMS[@]}"; do
+        run_test "build_static_$p" build "$OUT/bin/static_$p" gcc "${CWARN[@]}" -O1 -g \
+            "${INC[@]}" "$ROOT/tests/c/$p.c" "${STATIC[@]}"
+        # Fewer random iterations: valgrind is ~50x slower.
+        [[ -x $OUT/bin/static_$p ]] &&
+            run_test "valgrind_$p" env PMC_TEST_ITERATIONS=60 "${VG[@]}" "$OUT/bin/static_$p"
+    done
+fi
+
+# --- 4. CMake package ---------------------------------------------------------------------
+if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
+    CB=$OUT/cmake-build
+    PREFIX=$OUT/prefix
+    rm -rf "$PREFIX" "$OUT"/consumer-*
+    # Share cargo's release build instead of building the crate again.
+    run_test cmake_configure cmake -S "$ROOT" -B "$CB" -DPRECISEMC_CARGO_TARGET_DIR="$TARGET_DIR"
+    run_test cmake_build cmake --build "$CB"
+    run_test cmake_install cmake --install "$CB" --prefix "$PREFIX"
+
+    consumer() { # consumer NAME CMAKE_ARGS...
+        local dir=$OUT/consumer-$1
+        shift
+        cmake -S "$ROOT/tests/cmake_consumer" -B "$dir" "$@" &&
+            cmake --build "$dir" &&
+            (cd "$dir" && ctest --output-on-failure) &&
+            # The static one must not need libprecisemc.so.
+            ! ldd "$dir/consumer_static" | grep -q libprecisemc
+    }
+    run_test cmake_consumer_install consumer install -DCMAKE_PREFIX_PATH="$PREFIX"
+    run_test cmake_consumer_build_tree consumer build-tree -DPreciseMC_DIR="$CB"
+
+    pkgconfig_consumer() { # pkgconfig_consumer shared|static
+        local pc=(env PKG_CONFIG_PATH="$PREFIX/lib/pkgconfig" pkg-config)
+        local exe=$OUT/consumer-pkgconfig-$1
+        local cflags libs libdir
+        cflags=$("${pc[@]}" --cflags precisemc)
+        libdir=$("${pc[@]}" --variable=libdir precisemc)
+        if [[ $1 == shared ]]; then
+            libs=$("${pc[@]}" --libs precisemc)
+            # shellcheck disable=SC2086
+            gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" $libs \
+                -Wl,-rpath,"$libdir" -o "$exe"
+        else
+            libs=$("${pc[@]}" --static --libs-only-l precisemc)
+            # shellcheck disable=SC2086
+            gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" \
+                "$libdir/libprecisemc.a" ${libs//-lprecisemc/} -o "$exe"
+            ! ldd "$exe" | grep -q libprecisemc || return 1
+        fi
+        [[ $("${pc[@]}" --modversion precisemc) == "$(sed -n 's/^#define PMC_VERSION_STRING "\(.*\)"/\1/p' "$ROOT/include/precisemc.h")" ]] &&
+            "$exe"
+    }
+    run_test pkgconfig_shared pkgconfig_consumer shared
+    run_test pkgconfig_static pkgconfig_consumer static
+fi
+
+finish

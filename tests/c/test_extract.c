@@ -1,0 +1,370 @@
+/*
+ * Full extractions through the C API: a sphere (closed, oriented, right
+ * volume), every scalar type, strides, pieces with index offsets, options
+ * that change the output, normals and statistics.
+ */
+#include <stddef.h>
+
+#include "common.h"
+
+#define N 24
+#define RADIUS 8.0
+
+static const double PI = 3.14159265358979323846;
+
+/* Extracts with `o` (may be NULL); returns the mesh or NULL. */
+static pmc_mesh *extract(const pmc_volume *v, double iso, const pmc_options *o) {
+    pmc_mesh *m = NULL;
+    CHECK_STATUS(pmc_extract(v, iso, o, &m), PMC_STATUS_OK);
+    CHECK(m != NULL);
+    return m;
+}
+
+static void test_layout(void) {
+    /* Pinned ABI: the Rust tests (tests/c_api.rs) check the same numbers. */
+    CHECK(sizeof(pmc_volume) == 120);
+    CHECK(offsetof(pmc_volume, len) == 8);
+    CHECK(offsetof(pmc_volume, scalar_type) == 16);
+    CHECK(offsetof(pmc_volume, dims) == 24);
+    CHECK(offsetof(pmc_volume, strides) == 48);
+    CHECK(offsetof(pmc_volume, origin) == 72);
+    CHECK(offsetof(pmc_volume, spacing) == 96);
+    CHECK(sizeof(pmc_stats) == 144);
+    CHECK(offsetof(pmc_stats, max_level) == 80);
+    CHECK(offsetof(pmc_stats, mean_level) == 88);
+    CHECK(offsetof(pmc_stats, budget_reached) == 96);
+    CHECK(offsetof(pmc_stats, time_total) == 136);
+    CHECK(sizeof(pmc_status) == 4 && sizeof(pmc_scalar_type) == 4);
+    CHECK(PMC_STATUS_OK == 0 && PMC_STATUS_NULL_ARGUMENT == 1 && PMC_STATUS_INVALID_ARGUMENT == 2 &&
+          PMC_STATUS_ABORTED == 3 && PMC_STATUS_OUT_OF_MEMORY == 4 && PMC_STATUS_INTERNAL_ERROR == 5);
+    CHECK(PMC_SCALAR_TYPE_I8 == 0 && PMC_SCALAR_TYPE_U8 == 1 && PMC_SCALAR_TYPE_I16 == 2 &&
+          PMC_SCALAR_TYPE_U16 == 3 && PMC_SCALAR_TYPE_I32 == 4 && PMC_SCALAR_TYPE_U32 == 5 &&
+          PMC_SCALAR_TYPE_I64 == 6 && PMC_SCALAR_TYPE_U64 == 7 && PMC_SCALAR_TYPE_F32 == 8 &&
+          PMC_SCALAR_TYPE_F64 == 9);
+    CHECK(PMC_TOPOLOGY_TRILINEAR == 0 && PMC_TOPOLOGY_CLASSIC == 1);
+    CHECK(PMC_RULE_A == 0 && PMC_RULE_A1 == 1 && PMC_RULE_A2 == 2 && PMC_RULE_B == 3);
+    CHECK(PMC_NORMALS_NONE == 0 && PMC_NORMALS_GRADIENT == 1 && PMC_NORMALS_CENTRAL_DIFFERENCE == 2);
+}
+
+static void test_sphere(void) {
+    pmc_volume v = make_sphere(N, PMC_SCALAR_TYPE_F32, 1.0);
+    pmc_mesh *m = extract(&v, RADIUS, NULL);
+    pmc_stats s;
+    double vol, exact = 4.0 / 3.0 * PI * RADIUS * RADIUS * RADIUS;
+    uint64_t i, np = pmc_mesh_point_count(m);
+    const double *p = pmc_mesh_points(m);
+    double c = 0.5 * (N - 1), worst = 0.0;
+
+    CHECK(np > 0);
+    CHECK(pmc_mesh_triangle_count(m) > 0);
+    CHECK(check_mesh(m, &v, 5));
+    CHECK(mesh_is_closed(m));
+    CHECK(pmc_mesh_normals(m) == NULL); /* not requested */
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.cells == (uint64_t)(N - 1) * (N - 1) * (N - 1));
+    CHECK(s.mc_triangles > 0 && s.output_triangles >= s.mc_triangles);
+    CHECK(s.split_points > 0 && s.samples_evaluated >= s.split_points);
+    CHECK(s.max_level >= 1 && s.max_level <= 5);
+    CHECK(s.mean_level > 0.0 && s.mean_level <= s.max_level);
+    CHECK(s.budget_reached == 0);
+    CHECK(s.effective_max_level == 5);
+    CHECK(s.skipped_nonfinite_cells == 0);
+    CHECK(s.time_total >= 0.0 && s.time_total >= s.time_mc);
+    /* Oriented towards lower values (inwards): negative signed volume. */
+    vol = mesh_signed_volume(m);
+    CHECK(vol < 0.0);
+    CHECK(fabs(-vol - exact) < 0.02 * exact);
+    for (i = 0; i < np; i++) {
+        double x = p[3 * i] - c, y = p[3 * i + 1] - c, z = p[3 * i + 2] - c;
+        double e = fabs(sqrt(x * x + y * y + z * z) - RADIUS);
+        if (e > worst) worst = e;
+    }
+    CHECK(worst < 0.05);
+    pmc_mesh_free(m);
+    free((void *)v.data);
+}
+
+/* Every scalar type with the same integer values gives the same mesh. */
+static void test_scalar_types(void) {
+    pmc_volume ref = make_sphere(16, PMC_SCALAR_TYPE_F64, 4.0);
+    pmc_mesh *mref;
+    pmc_scalar_type t;
+    /* make_sphere rounds for integer types: round the reference too. */
+    {
+        uint64_t i;
+        double *d = (double *)ref.data;
+        for (i = 0; i < ref.len; i++) d[i] = floor(d[i] + 0.5);
+    }
+    mref = extract(&ref, 20.5, NULL);
+    CHECK(mesh_is_closed(mref));
+    for (t = 0; t < 10; t++) {
+        pmc_volume v = make_sphere(16, t, 4.0);
+        pmc_mesh *m;
+        uint64_t i;
+        if (t == PMC_SCALAR_TYPE_F32)
+            for (i = 0; i < v.len; i++) ((float *)v.data)[i] = floorf(((float *)v.data)[i] + 0.5f);
+        if (t == PMC_SCALAR_TYPE_F64)
+            for (i = 0; i < v.len; i++) ((double *)v.data)[i] = floor(((double *)v.data)[i] + 0.5);
+        m = extract(&v, 20.5, NULL);
+        CHECK(check_mesh(m, &v, 5));
+        CHECK(mesh_is_closed(m));
+        if (!meshes_equal(m, mref)) {
+            fprintf(stderr, "scalar type %u differs from f64\n", (unsigned)t);
+            CHECK(0);
+        }
+        pmc_mesh_free(m);
+        free((void *)v.data);
+    }
+    pmc_mesh_free(mref);
+    free((void *)ref.data);
+}
+
+/* A volume embedded with padding and permuted strides reads the same. */
+static void test_strides(void) {
+    const uint64_t n = 12;
+    pmc_volume v = make_sphere(n, PMC_SCALAR_TYPE_F64, 1.0);
+    pmc_mesh *a = extract(&v, 4.2, NULL), *b;
+    /* Layout z fastest, then x, then y, with padding on every axis. */
+    const uint64_t pz = n + 3, px = n + 1;
+    uint64_t len = pz * px * n + 5, i, j, k;
+    double *buf = (double *)malloc((size_t)len * sizeof *buf);
+    const double *src = (const double *)v.data;
+    pmc_volume w = v;
+    for (i = 0; i < len; i++) buf[i] = NAN; /* padding must never be read */
+    for (k = 0; k < n; k++)
+        for (j = 0; j < n; j++)
+            for (i = 0; i < n; i++) buf[j * (pz * px) + i * pz + k] = src[(k * n + j) * n + i];
+    w.data = buf;
+    w.len = pz * px * (n - 1) + pz * (n - 1) + (n - 1) + 1; /* exactly enough */
+    w.strides[0] = (int64_t)pz;
+    w.strides[1] = (int64_t)(pz * px);
+    w.strides[2] = 1;
+    b = extract(&w, 4.2, NULL);
+    CHECK(meshes_equal(a, b));
+    {
+        pmc_stats s;
+        CHECK_STATUS(pmc_mesh_stats(b, &s), PMC_STATUS_OK);
+        CHECK(s.skipped_nonfinite_cells == 0);
+    }
+    /* Explicit contiguous strides equal the all-zero shorthand. */
+    v.strides[0] = 1;
+    v.strides[1] = (int64_t)n;
+    v.strides[2] = (int64_t)(n * n);
+    pmc_mesh_free(b);
+    b = extract(&v, 4.2, NULL);
+    CHECK(meshes_equal(a, b));
+    pmc_mesh_free(a);
+    pmc_mesh_free(b);
+    free(buf);
+    free((void *)v.data);
+}
+
+/* Two pieces sharing the layer k = 10 produce bit-identical points on it,
+ * equal to those of the whole volume. */
+static void test_pieces(void) {
+    const uint64_t n = 20, cut = 10;
+    pmc_volume whole = make_sphere(n, PMC_SCALAR_TYPE_F32, 1.0), lo = whole, hi = whole;
+    pmc_options *o = pmc_options_new();
+    int64_t off[3] = {0, 0, 0};
+    pmc_mesh *mw, *ml, *mh;
+    double zcut;
+    uint64_t i, on_lo = 0, on_hi = 0, matched = 0;
+    whole.origin[0] = -3.25;
+    whole.origin[1] = 1.5;
+    whole.origin[2] = 0.125;
+    whole.spacing[0] = 0.5;
+    whole.spacing[1] = 0.75;
+    whole.spacing[2] = 0.3;
+    lo = hi = whole;
+    lo.dims[2] = cut + 1;
+    lo.len = n * n * (cut + 1);
+    lo.strides[0] = 1;
+    lo.strides[1] = (int64_t)n;
+    lo.strides[2] = (int64_t)(n * n);
+    hi.data = (const float *)whole.data + n * n * cut;
+    hi.dims[2] = n - cut;
+    hi.len = n * n * (n - cut);
+    mw = extract(&whole, 7.0, o);
+    ml = extract(&lo, 7.0, o);
+    off[2] = (int64_t)cut;
+    CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
+    mh = extract(&hi, 7.0, o);
+    zcut = whole.origin[2] + whole.spacing[2] * (double)cut;
+    CHECK(pmc_mesh_triangle_count(ml) + pmc_mesh_triangle_count(mh) == pmc_mesh_triangle_count(mw));
+    {
+        const double *pl = pmc_mesh_points(ml), *ph = pmc_mesh_points(mh);
+        const double *il = pmc_mesh_index_points(ml), *ih = pmc_mesh_index_points(mh);
+        uint64_t nl = pmc_mesh_point_count(ml), nh = pmc_mesh_point_count(mh), a, b;
+        for (a = 0; a < nh; a++) CHECK(ih[3 * a + 2] >= (double)cut);
+        for (a = 0; a < nl; a++) {
+            if (il[3 * a + 2] != (double)cut) continue;
+            on_lo++;
+            CHECK(pl[3 * a + 2] == zcut);
+            for (b = 0; b < nh; b++)
+                if (memcmp(pl + 3 * a, ph + 3 * b, 3 * sizeof(double)) == 0) {
+                    matched++;
+                    break;
+                }
+        }
+        for (b = 0; b < nh; b++) on_hi += ih[3 * b + 2] == (double)cut;
+    }
+    CHECK(on_lo > 0);
+    CHECK(on_lo == on_hi);
+    CHECK(matched == on_lo);
+    (void)i;
+    pmc_mesh_free(mw);
+    pmc_mesh_free(ml);
+    pmc_mesh_free(mh);
+    pmc_options_free(o);
+    free((void *)whole.data);
+}
+
+/* Options reach the core: plain MC, rules, topology, normals, cap, threads. */
+static void test_options_effects(void) {
+    pmc_volume v = make_sphere(16, PMC_SCALAR_TYPE_F64, 1.0);
+    pmc_options *o = pmc_options_new();
+    pmc_mesh *def = extract(&v, 5.3, o), *m;
+    pmc_stats s, sd;
+    pmc_rule r;
+    uint32_t th;
+
+    CHECK_STATUS(pmc_mesh_stats(def, &sd), PMC_STATUS_OK);
+    /* NULL options = defaults. */
+    m = extract(&v, 5.3, NULL);
+    CHECK(meshes_equal(m, def));
+    pmc_mesh_free(m);
+
+    /* epsilon 0: plain Marching Cubes. */
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.0), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.output_triangles == s.mc_triangles && s.max_level == 0 && s.split_points == 0);
+    CHECK(s.mc_triangles == sd.mc_triangles);
+    CHECK(mesh_is_closed(m));
+    pmc_mesh_free(m);
+    /* max level 0: the same. */
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.01), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_max_level(o, 0), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.output_triangles == s.mc_triangles && s.max_level == 0);
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_max_level(o, 5), PMC_STATUS_OK);
+
+    /* Every rule gives a valid closed mesh. */
+    for (r = PMC_RULE_A; r <= PMC_RULE_B; r++) {
+        CHECK_STATUS(pmc_options_set_rule(o, r), PMC_STATUS_OK);
+        m = extract(&v, 5.3, o);
+        CHECK(check_mesh(m, &v, 5));
+        CHECK(mesh_is_closed(m));
+        pmc_mesh_free(m);
+    }
+    CHECK_STATUS(pmc_options_set_rule(o, PMC_RULE_A1), PMC_STATUS_OK);
+
+    /* Classic topology: no ambiguous-cell decisions. */
+    CHECK_STATUS(pmc_options_set_topology(o, PMC_TOPOLOGY_CLASSIC), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.ambiguous_cells == 0);
+    CHECK(check_mesh(m, &v, 5));
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_topology(o, PMC_TOPOLOGY_TRILINEAR), PMC_STATUS_OK);
+
+    /* Normals: unit, pointing inwards (towards lower values). */
+    CHECK_STATUS(pmc_options_set_normals(o, PMC_NORMALS_GRADIENT), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK(pmc_mesh_normals(m) != NULL);
+    CHECK(check_mesh(m, &v, 5));
+    {
+        const double *p = pmc_mesh_points(m);
+        const float *nr = pmc_mesh_normals(m);
+        uint64_t i, np = pmc_mesh_point_count(m), inward = 0;
+        for (i = 0; i < np; i++) {
+            double d = (p[3 * i] - 7.5) * nr[3 * i] + (p[3 * i + 1] - 7.5) * nr[3 * i + 1] +
+                       (p[3 * i + 2] - 7.5) * nr[3 * i + 2];
+            inward += d < 0.0;
+        }
+        CHECK(inward == np);
+    }
+    CHECK(meshes_equal(m, def)); /* normals do not change the geometry */
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_normals(o, PMC_NORMALS_CENTRAL_DIFFERENCE), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK(pmc_mesh_normals(m) != NULL);
+    CHECK(check_mesh(m, &v, 5));
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_normals(o, PMC_NORMALS_NONE), PMC_STATUS_OK);
+
+    /* Triangle cap below the default output: refinement stops early. */
+    CHECK_STATUS(pmc_options_set_max_triangles(o, sd.mc_triangles + 1), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.budget_reached == 1);
+    CHECK(s.effective_max_level < 5);
+    CHECK(s.output_triangles <= sd.output_triangles);
+    CHECK(check_mesh(m, &v, 5));
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_max_triangles(o, 0), PMC_STATUS_OK);
+
+    /* Any thread count gives the same mesh. */
+    for (th = 0; th <= 3; th++) {
+        CHECK_STATUS(pmc_options_set_threads(o, th), PMC_STATUS_OK);
+        m = extract(&v, 5.3, o);
+        CHECK(meshes_equal(m, def));
+        pmc_mesh_free(m);
+    }
+
+    /* Origin and spacing map index points to world points. */
+    v.origin[0] = 10.0;
+    v.origin[1] = -2.0;
+    v.origin[2] = 0.5;
+    v.spacing[0] = 0.25;
+    v.spacing[1] = 2.0;
+    v.spacing[2] = 1.5;
+    m = extract(&v, 5.3, o);
+    CHECK(check_mesh(m, &v, 5));
+    CHECK(pmc_mesh_point_count(m) == pmc_mesh_point_count(def));
+    CHECK(memcmp(pmc_mesh_index_points(m), pmc_mesh_index_points(def),
+                 (size_t)pmc_mesh_point_count(m) * 3 * sizeof(double)) == 0);
+    pmc_mesh_free(m);
+
+    /* An isovalue outside the data: an empty mesh with NULL arrays. */
+    m = extract(&v, 1000.0, o);
+    CHECK(pmc_mesh_point_count(m) == 0 && pmc_mesh_triangle_count(m) == 0);
+    CHECK(pmc_mesh_points(m) == NULL && pmc_mesh_triangles(m) == NULL);
+    CHECK(pmc_mesh_index_points(m) == NULL && pmc_mesh_triangle_levels(m) == NULL);
+    CHECK(pmc_mesh_normals(m) == NULL);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.output_triangles == 0 && s.mc_triangles == 0);
+    pmc_mesh_free(m);
+
+    pmc_mesh_free(def);
+    pmc_options_free(o);
+    free((void *)v.data);
+}
+
+/* NaN samples skip their cells instead of failing. */
+static void test_nonfinite_samples(void) {
+    pmc_volume v = make_sphere(12, PMC_SCALAR_TYPE_F32, 1.0);
+    pmc_mesh *m;
+    pmc_stats s;
+    ((float *)v.data)[5 + 12 * (5 + 12 * 1)] = NAN;
+    ((float *)v.data)[6 + 12 * (6 + 12 * 6)] = INFINITY;
+    m = extract(&v, 4.0, NULL);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.skipped_nonfinite_cells > 0);
+    CHECK(check_mesh(m, &v, 5));
+    pmc_mesh_free(m);
+    free((void *)v.data);
+}
+
+int main(void) {
+    test_layout();
+    test_sphere();
+    test_scalar_types();
+    test_strides();
+    test_pieces();
+    test_options_effects();
+    test_nonfinite_samples();
+    return test_finish("test_extract");
+}

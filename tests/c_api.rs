@@ -1,0 +1,513 @@
+//! The C API called directly from Rust: its results equal the Rust API's
+//! bit for bit, its layout is the one the C tests pin, and its error state
+//! is per thread.
+
+use std::ffi::{c_int, c_void, CStr};
+use std::ops::ControlFlow;
+use std::ptr;
+
+use precisemc::ffi::*;
+use precisemc::{
+    extract, extract_with_progress, Mesh, NormalMode, Options, Rule, Topology, Volume,
+};
+
+fn sphere(n: u64, c: [f64; 3]) -> Vec<f32> {
+    let mut d = Vec::new();
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y, z) = (i as f64 - c[0], j as f64 - c[1], k as f64 - c[2]);
+                // Two blobs: some ambiguous cells and refinement.
+                let a = (x * x + y * y + z * z).sqrt();
+                let b = ((x - 4.0).powi(2) + (y + 1.0).powi(2) + (z - 2.0).powi(2)).sqrt();
+                d.push(a.min(b + 0.7) as f32);
+            }
+        }
+    }
+    d
+}
+
+fn c_volume(data: &[f32], dims: [u64; 3]) -> pmc_volume {
+    pmc_volume {
+        data: data.as_ptr().cast(),
+        len: data.len() as u64,
+        scalar_type: PmcScalarType::F32 as pmc_scalar_type,
+        dims,
+        strides: [0; 3],
+        origin: [0.5, -1.0, 2.0],
+        spacing: [0.5, 1.0, 1.25],
+    }
+}
+
+/// Owns a C mesh handle.
+struct CMesh(*mut pmc_mesh);
+
+impl Drop for CMesh {
+    fn drop(&mut self) {
+        unsafe { pmc_mesh_free(self.0) }
+    }
+}
+
+impl CMesh {
+    fn slice<T>(&self, p: *const T, len: u64) -> &[T] {
+        if len == 0 {
+            assert!(p.is_null());
+            &[]
+        } else {
+            assert!(!p.is_null());
+            unsafe { std::slice::from_raw_parts(p, len as usize) }
+        }
+    }
+
+    /// Asserts that this mesh equals `m` exactly (times excepted).
+    fn assert_equals(&self, m: &Mesh) {
+        let h = self.0;
+        let (np, nt) = unsafe { (pmc_mesh_point_count(h), pmc_mesh_triangle_count(h)) };
+        assert_eq!(np, m.points.len() as u64);
+        assert_eq!(nt, m.triangles.len() as u64);
+        let flat = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(self.slice(unsafe { pmc_mesh_points(h) }, 3 * np)),
+            flat(&m.points)
+        );
+        assert_eq!(
+            bits(self.slice(unsafe { pmc_mesh_index_points(h) }, 3 * np)),
+            flat(&m.index_points)
+        );
+        let tris: Vec<i64> = m.triangles.iter().flatten().map(|&i| i as i64).collect();
+        assert_eq!(
+            self.slice(unsafe { pmc_mesh_triangles(h) }, 3 * nt),
+            &tris[..]
+        );
+        assert_eq!(
+            self.slice(unsafe { pmc_mesh_triangle_levels(h) }, nt),
+            &m.levels[..]
+        );
+        let normals: Vec<f32> = m.normals.iter().flatten().copied().collect();
+        let cn = unsafe { pmc_mesh_normals(h) };
+        if normals.is_empty() {
+            assert!(cn.is_null());
+        } else {
+            assert_eq!(self.slice(cn, 3 * np), &normals[..]);
+        }
+        let mut s = pmc_stats::default();
+        assert_eq!(unsafe { pmc_mesh_stats(h, &mut s) }, PmcStatus::Ok);
+        let r = &m.stats;
+        assert_eq!(
+            (
+                s.cells,
+                s.mc_triangles,
+                s.output_triangles,
+                s.output_points,
+                s.ambiguous_cells
+            ),
+            (
+                r.cells,
+                r.mc_triangles,
+                r.output_triangles,
+                r.output_points,
+                r.ambiguous_cells
+            )
+        );
+        assert_eq!(
+            (
+                s.skipped_nonfinite_cells,
+                s.samples_evaluated,
+                s.split_points
+            ),
+            (
+                r.skipped_nonfinite_cells,
+                r.samples_evaluated,
+                r.split_points
+            )
+        );
+        assert_eq!(
+            (
+                s.projection_failures,
+                s.faces_above_epsilon,
+                s.max_level,
+                s.effective_max_level
+            ),
+            (
+                r.projection_failures,
+                r.faces_above_epsilon,
+                r.max_level,
+                r.effective_max_level
+            )
+        );
+        assert_eq!(s.mean_level.to_bits(), r.mean_level.to_bits());
+        assert_eq!(s.budget_reached != 0, r.budget_reached);
+    }
+}
+
+fn c_extract(v: &pmc_volume, iso: f64, o: *const pmc_options) -> Result<CMesh, PmcStatus> {
+    let mut m = ptr::null_mut();
+    match unsafe { pmc_extract(v, iso, o, &mut m) } {
+        PmcStatus::Ok => {
+            assert!(!m.is_null());
+            Ok(CMesh(m))
+        }
+        s => {
+            assert!(m.is_null());
+            Err(s)
+        }
+    }
+}
+
+fn last_error() -> String {
+    let n = unsafe { pmc_last_error_message(ptr::null_mut(), 0) };
+    let mut buf = vec![0u8; n + 1];
+    assert_eq!(
+        unsafe { pmc_last_error_message(buf.as_mut_ptr().cast(), buf.len()) },
+        n
+    );
+    CStr::from_bytes_with_nul(&buf)
+        .unwrap()
+        .to_str()
+        .unwrap()
+        .to_owned()
+}
+
+#[test]
+fn layout_matches_the_c_tests() {
+    use std::mem::{offset_of, size_of};
+    assert_eq!(size_of::<pmc_volume>(), 120);
+    assert_eq!(offset_of!(pmc_volume, len), 8);
+    assert_eq!(offset_of!(pmc_volume, scalar_type), 16);
+    assert_eq!(offset_of!(pmc_volume, dims), 24);
+    assert_eq!(offset_of!(pmc_volume, strides), 48);
+    assert_eq!(offset_of!(pmc_volume, origin), 72);
+    assert_eq!(offset_of!(pmc_volume, spacing), 96);
+    assert_eq!(size_of::<pmc_stats>(), 144);
+    assert_eq!(offset_of!(pmc_stats, max_level), 80);
+    assert_eq!(offset_of!(pmc_stats, mean_level), 88);
+    assert_eq!(offset_of!(pmc_stats, budget_reached), 96);
+    assert_eq!(offset_of!(pmc_stats, time_total), 136);
+    assert_eq!(size_of::<PmcStatus>(), 4);
+    assert_eq!(PMC_MAX_LEVEL_LIMIT, precisemc::MAX_LEVEL_LIMIT);
+}
+
+#[test]
+fn enum_values_are_stable() {
+    let s = [
+        PmcStatus::Ok,
+        PmcStatus::NullArgument,
+        PmcStatus::InvalidArgument,
+        PmcStatus::Aborted,
+        PmcStatus::OutOfMemory,
+        PmcStatus::InternalError,
+    ];
+    for (i, v) in s.iter().enumerate() {
+        assert_eq!(*v as u32, i as u32);
+        assert_eq!(PmcStatus::from_raw(i as u32), Some(*v));
+    }
+    assert_eq!(PmcStatus::from_raw(6), None);
+    assert_eq!(PmcScalarType::ALL.len(), 10);
+    for (i, v) in PmcScalarType::ALL.iter().enumerate() {
+        assert_eq!(*v as u32, i as u32);
+    }
+    assert_eq!(PmcScalarType::from_raw(10), None);
+    assert_eq!(PmcTopology::from_raw(2), None);
+    assert_eq!(PmcRule::from_raw(4), None);
+    assert_eq!(PmcNormals::from_raw(3), None);
+    assert_eq!(PmcRule::from_raw(u32::MAX), None);
+    assert_eq!(PmcNormals::CentralDifference as u32, 2);
+}
+
+#[test]
+fn c_api_equals_rust_api() {
+    let n = 20;
+    let data = sphere(n, [8.3, 9.1, 8.7]);
+    let cv = c_volume(&data, [n, n, n]);
+    let rv = Volume::new(&data, [n, n, n])
+        .with_origin(cv.origin)
+        .with_spacing(cv.spacing);
+    let cases: Vec<(PmcRule, PmcTopology, PmcNormals, f64, u32, u64)> = vec![
+        (
+            PmcRule::A1,
+            PmcTopology::Trilinear,
+            PmcNormals::None,
+            0.01,
+            5,
+            0,
+        ),
+        (
+            PmcRule::A,
+            PmcTopology::Classic,
+            PmcNormals::Gradient,
+            0.02,
+            3,
+            0,
+        ),
+        (
+            PmcRule::A2,
+            PmcTopology::Trilinear,
+            PmcNormals::CentralDifference,
+            0.005,
+            4,
+            0,
+        ),
+        (
+            PmcRule::B,
+            PmcTopology::Classic,
+            PmcNormals::None,
+            0.0,
+            5,
+            0,
+        ),
+        (
+            PmcRule::B,
+            PmcTopology::Trilinear,
+            PmcNormals::Gradient,
+            0.001,
+            6,
+            5000,
+        ),
+    ];
+    for (rule, topo, normals, eps, level, cap) in cases {
+        let o = pmc_options_new();
+        unsafe {
+            assert_eq!(pmc_options_set_rule(o, rule as u32), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_topology(o, topo as u32), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_normals(o, normals as u32), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_epsilon(o, eps), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_max_level(o, level), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_max_triangles(o, cap), PmcStatus::Ok);
+            assert_eq!(pmc_options_set_threads(o, 2), PmcStatus::Ok);
+        }
+        let ro = Options {
+            epsilon: eps,
+            max_level: level,
+            rule: match rule {
+                PmcRule::A => Rule::A,
+                PmcRule::A1 => Rule::A1,
+                PmcRule::A2 => Rule::A2,
+                PmcRule::B => Rule::B,
+            },
+            topology: match topo {
+                PmcTopology::Trilinear => Topology::Trilinear,
+                PmcTopology::Classic => Topology::Classic,
+            },
+            normals: match normals {
+                PmcNormals::None => NormalMode::None,
+                PmcNormals::Gradient => NormalMode::Gradient,
+                PmcNormals::CentralDifference => NormalMode::CentralDifference,
+            },
+            max_triangles: cap,
+            threads: 1,
+        };
+        let cm = c_extract(&cv, 5.5, o).unwrap();
+        let rm = extract(&rv, 5.5, &ro).unwrap();
+        assert!(!rm.triangles.is_empty());
+        cm.assert_equals(&rm);
+        unsafe { pmc_options_free(o) };
+    }
+    // NULL options are the defaults.
+    let cm = c_extract(&cv, 5.5, ptr::null()).unwrap();
+    cm.assert_equals(&extract(&rv, 5.5, &Options::default()).unwrap());
+}
+
+#[test]
+fn index_offset_and_strides_equal_rust_api() {
+    let n = 14;
+    let data = sphere(n, [6.0, 6.5, 7.0]);
+    // x and z swapped in memory: strides (n*n, n, 1).
+    let mut swapped = vec![0f32; data.len()];
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                swapped[((i * n + j) * n + k) as usize] = data[((k * n + j) * n + i) as usize];
+            }
+        }
+    }
+    let mut cv = c_volume(&swapped, [n, n, n]);
+    cv.strides = [(n * n) as i64, n as i64, 1];
+    let offset = [-3i64, 10, 1 << 20];
+    let rv = Volume::new(&data, [n, n, n])
+        .with_origin(cv.origin)
+        .with_spacing(cv.spacing)
+        .with_index_offset(offset);
+    let o = pmc_options_new();
+    assert_eq!(
+        unsafe { pmc_options_set_index_offset(o, offset.as_ptr()) },
+        PmcStatus::Ok
+    );
+    let cm = c_extract(&cv, 4.5, o).unwrap();
+    cm.assert_equals(&extract(&rv, 4.5, &Options::default()).unwrap());
+    unsafe { pmc_options_free(o) };
+}
+
+#[test]
+fn every_scalar_type_equals_rust_api() {
+    let n = 10u64;
+    let base: Vec<f64> = sphere(n, [4.5, 4.2, 4.9])
+        .iter()
+        .map(|&x| (x * 10.0).round() as f64)
+        .collect();
+    macro_rules! check {
+        ($t:ty, $st:expr) => {{
+            let d: Vec<$t> = base.iter().map(|&x| x as $t).collect();
+            let cv = pmc_volume {
+                data: d.as_ptr().cast(),
+                len: d.len() as u64,
+                scalar_type: $st as u32,
+                dims: [n; 3],
+                strides: [0; 3],
+                origin: [0.0; 3],
+                spacing: [1.0; 3],
+            };
+            let cm = c_extract(&cv, 35.5, ptr::null()).unwrap();
+            cm.assert_equals(
+                &extract(&Volume::new(&d, [n; 3]), 35.5, &Options::default()).unwrap(),
+            );
+        }};
+    }
+    check!(i8, PmcScalarType::I8);
+    check!(u8, PmcScalarType::U8);
+    check!(i16, PmcScalarType::I16);
+    check!(u16, PmcScalarType::U16);
+    check!(i32, PmcScalarType::I32);
+    check!(u32, PmcScalarType::U32);
+    check!(i64, PmcScalarType::I64);
+    check!(u64, PmcScalarType::U64);
+    check!(f32, PmcScalarType::F32);
+    check!(f64, PmcScalarType::F64);
+}
+
+unsafe extern "C" fn record(user_data: *mut c_void, fraction: f64) -> c_int {
+    let v = unsafe { &mut *user_data.cast::<Vec<f64>>() };
+    v.push(fraction);
+    0
+}
+
+#[test]
+fn progress_matches_rust_and_is_monotone() {
+    let n = 40;
+    let data = sphere(n, [19.5, 19.5, 19.5]);
+    let cv = c_volume(&data, [n, n, n]);
+    let mut seen: Vec<f64> = Vec::new();
+    let o = pmc_options_new();
+    unsafe {
+        assert_eq!(
+            pmc_options_set_progress(o, Some(record), (&mut seen as *mut Vec<f64>).cast()),
+            PmcStatus::Ok
+        );
+        assert_eq!(pmc_options_set_max_triangles(o, 20000), PmcStatus::Ok);
+        assert_eq!(pmc_options_set_epsilon(o, 0.0005), PmcStatus::Ok);
+    }
+    let cm = c_extract(&cv, 12.0, o).unwrap();
+    assert_eq!(seen.first(), Some(&0.0));
+    assert_eq!(seen.last(), Some(&1.0));
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    // Same mesh as the Rust API with a progress closure.
+    let rv = Volume::new(&data, [n, n, n])
+        .with_origin(cv.origin)
+        .with_spacing(cv.spacing);
+    let ro = Options {
+        max_triangles: 20000,
+        epsilon: 0.0005,
+        ..Options::default()
+    };
+    let rm = extract_with_progress(&rv, 12.0, &ro, &mut |_| ControlFlow::Continue(())).unwrap();
+    cm.assert_equals(&rm);
+    unsafe { pmc_options_free(o) };
+}
+
+#[test]
+fn errors_map_to_statuses_with_messages() {
+    let data = sphere(6, [2.5, 2.5, 2.5]);
+    let mut cv = c_volume(&data, [6, 6, 6]);
+    assert_eq!(
+        c_extract(&cv, f64::NAN, ptr::null()).err(),
+        Some(PmcStatus::InvalidArgument)
+    );
+    assert!(
+        last_error().contains("isovalue NaN is not finite"),
+        "{}",
+        last_error()
+    );
+    cv.dims[1] = 1;
+    assert_eq!(
+        c_extract(&cv, 2.0, ptr::null()).err(),
+        Some(PmcStatus::InvalidArgument)
+    );
+    assert!(
+        last_error().contains("dimension 1 is 1"),
+        "{}",
+        last_error()
+    );
+    cv.dims[1] = 6;
+    cv.len -= 1;
+    assert_eq!(
+        c_extract(&cv, 2.0, ptr::null()).err(),
+        Some(PmcStatus::InvalidArgument)
+    );
+    assert!(
+        last_error().contains("outside the buffer"),
+        "{}",
+        last_error()
+    );
+    cv.len += 1;
+    cv.scalar_type = 77;
+    assert_eq!(
+        c_extract(&cv, 2.0, ptr::null()).err(),
+        Some(PmcStatus::InvalidArgument)
+    );
+    assert_eq!(last_error(), "unknown scalar type 77");
+    cv.scalar_type = PmcScalarType::F32 as u32;
+    cv.data = ptr::null();
+    assert_eq!(
+        c_extract(&cv, 2.0, ptr::null()).err(),
+        Some(PmcStatus::NullArgument)
+    );
+    assert_eq!(last_error(), "volume->data is NULL");
+    let status = unsafe { CStr::from_ptr(pmc_status_string(PmcStatus::Aborted as u32)) };
+    assert_eq!(status.to_str().unwrap(), "aborted by the progress callback");
+}
+
+#[test]
+fn last_error_is_per_thread_and_calls_are_thread_safe() {
+    let n = 16;
+    let data = sphere(n, [7.5, 7.5, 7.5]);
+    let cv = c_volume(&data, [n, n, n]);
+    let o = pmc_options_new();
+    unsafe { assert_eq!(pmc_options_set_epsilon(o, -1.0), PmcStatus::InvalidArgument) };
+    let main_msg = last_error();
+    assert!(main_msg.contains("epsilon"));
+    let reference = extract(
+        &Volume::new(&data, [n, n, n])
+            .with_origin(cv.origin)
+            .with_spacing(cv.spacing),
+        6.0,
+        &Options::default(),
+    )
+    .unwrap();
+    // Raw pointers: the C API documents volumes and options as shareable.
+    struct Shared(pmc_volume, *const pmc_options);
+    unsafe impl Sync for Shared {}
+    let shared = Shared(cv, o);
+    std::thread::scope(|s| {
+        for t in 0..4 {
+            let (reference, shared) = (&reference, &shared);
+            s.spawn(move || {
+                let cv = &shared.0;
+                assert_eq!(last_error(), "", "fresh thread has no error");
+                if t % 2 == 0 {
+                    let mut bad = *cv;
+                    bad.spacing[2] = -1.0;
+                    assert_eq!(
+                        c_extract(&bad, 6.0, shared.1).err(),
+                        Some(PmcStatus::InvalidArgument)
+                    );
+                    assert!(last_error().contains("spacing 2 is -1"));
+                }
+                c_extract(cv, 6.0, shared.1)
+                    .unwrap()
+                    .assert_equals(reference);
+            });
+        }
+    });
+    assert_eq!(last_error(), main_msg);
+    unsafe { pmc_options_free(o) };
+}
