@@ -1,0 +1,264 @@
+#include "Common.h"
+
+#include "vtkNew.h"
+#include "vtkObjectFactory.h"
+#include "vtkOutputWindow.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace pmcapp
+{
+namespace
+{
+
+std::vector<std::string> CapturedErrors;
+std::vector<std::string> CapturedWarnings;
+
+// "ERROR: In /path/vtkFoo.cxx, line 12\nvtkFoo (0x55d0): Cannot open file\n\n"
+// -> "Cannot open file".
+std::string CleanMessage(const char* text)
+{
+  std::string all = text ? text : "";
+  std::vector<std::string> lines;
+  std::istringstream in(all);
+  std::string line;
+  while (std::getline(in, line))
+  {
+    // Trim.
+    size_t b = line.find_first_not_of(" \t\r");
+    size_t e = line.find_last_not_of(" \t\r");
+    if (b == std::string::npos)
+    {
+      continue;
+    }
+    line = line.substr(b, e - b + 1);
+    if (line.compare(0, 10, "ERROR: In ") == 0 || line.compare(0, 12, "Warning: In ") == 0 ||
+      line.compare(0, 19, "Generic Warning: In") == 0)
+    {
+      continue;
+    }
+    // "vtkFoo (0x1234): message" -> "message".
+    size_t paren = line.find(" (0x");
+    size_t colon = line.find("): ");
+    if (paren != std::string::npos && colon != std::string::npos && paren < colon &&
+      line.compare(0, 3, "vtk") == 0)
+    {
+      line = line.substr(colon + 3);
+    }
+    lines.push_back(line);
+  }
+  std::string joined;
+  for (const auto& l : lines)
+  {
+    if (!joined.empty())
+    {
+      joined += ' ';
+    }
+    joined += l;
+  }
+  return joined;
+}
+
+class CaptureOutputWindow : public vtkOutputWindow
+{
+public:
+  static CaptureOutputWindow* New();
+  vtkTypeMacro(CaptureOutputWindow, vtkOutputWindow);
+
+  void DisplayText(const char*) override {}
+  void DisplayErrorText(const char* text) override
+  {
+    std::string m = CleanMessage(text);
+    if (!m.empty())
+    {
+      CapturedErrors.push_back(m);
+    }
+  }
+  void DisplayWarningText(const char* text) override
+  {
+    std::string m = CleanMessage(text);
+    if (!m.empty())
+    {
+      CapturedWarnings.push_back(m);
+    }
+  }
+  void DisplayGenericWarningText(const char* text) override { this->DisplayWarningText(text); }
+  void DisplayDebugText(const char*) override {}
+
+protected:
+  CaptureOutputWindow() = default;
+  ~CaptureOutputWindow() override = default;
+
+private:
+  CaptureOutputWindow(const CaptureOutputWindow&) = delete;
+  void operator=(const CaptureOutputWindow&) = delete;
+};
+vtkStandardNewMacro(CaptureOutputWindow);
+
+std::string DirectoryOf(const std::string& path)
+{
+  size_t slash = path.find_last_of('/');
+  if (slash == std::string::npos)
+  {
+    return ".";
+  }
+  if (slash == 0)
+  {
+    return "/";
+  }
+  return path.substr(0, slash);
+}
+
+}
+
+void CaptureVTKMessages()
+{
+  vtkNew<CaptureOutputWindow> window;
+  vtkOutputWindow::SetInstance(window);
+}
+
+std::vector<std::string> TakeVTKErrors()
+{
+  std::vector<std::string> out;
+  out.swap(CapturedErrors);
+  return out;
+}
+
+std::vector<std::string> TakeVTKWarnings()
+{
+  std::vector<std::string> out;
+  out.swap(CapturedWarnings);
+  return out;
+}
+
+std::string Extension(const std::string& path)
+{
+  size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  std::transform(name.begin(), name.end(), name.begin(),
+    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const char* twoPart : { ".nii.gz", ".tar.gz" })
+  {
+    size_t n = std::strlen(twoPart);
+    if (name.size() > n && name.compare(name.size() - n, n, twoPart) == 0)
+    {
+      return twoPart;
+    }
+  }
+  size_t dot = name.find_last_of('.');
+  if (dot == std::string::npos || dot == 0)
+  {
+    return "";
+  }
+  return name.substr(dot);
+}
+
+std::string WithSuffix(const std::string& path, const std::string& suffix)
+{
+  std::string ext = Extension(path);
+  return path.substr(0, path.size() - ext.size()) + "-" + suffix + path.substr(path.size() - ext.size());
+}
+
+bool IsDirectory(const std::string& path)
+{
+  struct stat st;
+  return stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+bool IsRegularFile(const std::string& path)
+{
+  struct stat st;
+  return stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+void CheckWritable(const std::string& path, const std::string& what)
+{
+  if (path.empty())
+  {
+    throw Error(what + ": empty file name", 2);
+  }
+  if (IsDirectory(path))
+  {
+    throw Error("cannot write " + what + " '" + path + "': it is a directory");
+  }
+  std::string dir = DirectoryOf(path);
+  if (!IsDirectory(dir))
+  {
+    throw Error("cannot write " + what + " '" + path + "': directory '" + dir + "' does not exist");
+  }
+  if (access(dir.c_str(), W_OK) != 0)
+  {
+    throw Error("cannot write " + what + " '" + path + "': directory '" + dir +
+      "' is not writable (" + std::strerror(errno) + ")");
+  }
+  if (access(path.c_str(), F_OK) == 0 && access(path.c_str(), W_OK) != 0)
+  {
+    throw Error(
+      "cannot write " + what + " '" + path + "': " + std::strerror(errno));
+  }
+}
+
+std::string TemporaryPathFor(const std::string& path)
+{
+  std::string dir = DirectoryOf(path);
+  size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  std::string prefix = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+  return prefix + "." + name + ".tmp" + std::to_string(static_cast<long>(getpid()));
+}
+
+void CommitFile(const std::string& tmp, const std::string& path)
+{
+  if (std::rename(tmp.c_str(), path.c_str()) != 0)
+  {
+    int err = errno;
+    std::remove(tmp.c_str());
+    throw Error("cannot write '" + path + "': " + std::strerror(err));
+  }
+}
+
+void RemoveFile(const std::string& path)
+{
+  std::remove(path.c_str());
+}
+
+std::string Grouped(unsigned long long value)
+{
+  std::string digits = std::to_string(value);
+  std::string out;
+  int count = 0;
+  for (auto it = digits.rbegin(); it != digits.rend(); ++it)
+  {
+    if (count > 0 && count % 3 == 0)
+    {
+      out.insert(out.begin(), ' ');
+    }
+    out.insert(out.begin(), *it);
+    ++count;
+  }
+  return out;
+}
+
+std::string Fixed(double value, int decimals)
+{
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, value);
+  return buf;
+}
+
+std::string General(double value)
+{
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.6g", value);
+  return buf;
+}
+
+}

@@ -1,0 +1,71 @@
+// Shared helpers of the precisemc tool: errors, VTK message capture, files.
+#ifndef precisemc_app_Common_h
+#define precisemc_app_Common_h
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+class vtkObject;
+
+namespace pmcapp
+{
+
+// A failure reported as one line "precisemc: error: <what>" and the exit
+// status.
+class Error : public std::runtime_error
+{
+public:
+  explicit Error(const std::string& what, int status = 1)
+    : std::runtime_error(what)
+    , Status(status)
+  {
+  }
+  int Status;
+};
+
+// Routes every VTK message (errors, warnings, text) into a buffer instead of
+// the terminal, so that a failure is reported as exactly one line.
+void CaptureVTKMessages();
+
+// The VTK errors captured since the last call, cleaned (one line each:
+// file/line prefixes and object addresses removed); clears the buffer.
+std::vector<std::string> TakeVTKErrors();
+
+// The VTK warnings captured since the last call; clears the buffer.
+std::vector<std::string> TakeVTKWarnings();
+
+// Lower-case extension of a file name, with the double extension ".nii.gz"
+// and ".tar.gz" kept whole: "a/B.NII.GZ" -> ".nii.gz", "a/b" -> "".
+std::string Extension(const std::string& path);
+
+// The file name with "-<suffix>" inserted before its extension.
+std::string WithSuffix(const std::string& path, const std::string& suffix);
+
+bool IsDirectory(const std::string& path);
+bool IsRegularFile(const std::string& path);
+
+// Throws Error unless a file can be created at path: its directory exists
+// and is writable, and path is not a directory.
+void CheckWritable(const std::string& path, const std::string& what);
+
+// A temporary file name next to path (same directory), to write to and
+// then rename onto path: nothing is half-written.
+std::string TemporaryPathFor(const std::string& path);
+
+// Renames tmp onto path; removes tmp and throws Error on failure.
+void CommitFile(const std::string& tmp, const std::string& path);
+
+// Removes the file if it exists (no error).
+void RemoveFile(const std::string& path);
+
+// "1234567" -> "1 234 567".
+std::string Grouped(unsigned long long value);
+
+// Number formatting with a fixed number of decimals or %g.
+std::string Fixed(double value, int decimals);
+std::string General(double value);
+
+}
+
+#endif

@@ -1,0 +1,260 @@
+// Reading volumes and writing surfaces for the precisemc tool. VTK readers
+// report problems through the output window (captured by Common.h) and
+// often still produce an empty image, so the result is checked as well.
+#include "IO.h"
+
+#include "Common.h"
+
+#include "vtkAlgorithm.h"
+#include "vtkDICOMImageReader.h"
+#include "vtkDataArray.h"
+#include "vtkImageData.h"
+#include "vtkImageReader2.h"
+#include "vtkMetaImageReader.h"
+#include "vtkNIFTIImageReader.h"
+#include "vtkNew.h"
+#include "vtkNrrdReader.h"
+#include "vtkOBJWriter.h"
+#include "vtkPLYWriter.h"
+#include "vtkPointData.h"
+#include "vtkPolyData.h"
+#include "vtkSTLWriter.h"
+#include "vtkStructuredPointsReader.h"
+#include "vtkXMLImageDataReader.h"
+#include "vtkXMLPolyDataWriter.h"
+
+#include <cmath>
+
+namespace pmcapp
+{
+namespace
+{
+
+const char* const InputExtensions = ".vti, .vtk, .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr";
+const char* const SurfaceExtensions = ".vtp, .ply, .stl, .obj";
+
+bool IsSurfaceExtension(const std::string& ext)
+{
+  return ext == ".vtp" || ext == ".ply" || ext == ".stl" || ext == ".obj";
+}
+
+[[noreturn]] void Unreadable(const std::string& path, const std::string& why)
+{
+  throw Error("cannot read '" + path + "': " + why);
+}
+
+// Runs the reader and turns captured VTK errors into an Error.
+vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
+{
+  TakeVTKErrors();
+  reader->Update();
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (!errors.empty())
+  {
+    Unreadable(path, errors.front());
+  }
+  if (reader->GetErrorCode() != 0)
+  {
+    Unreadable(path, "the reader failed (is the file complete?)");
+  }
+  return vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));
+}
+
+// The reader for a file, after a cheap look at its header when the reader
+// offers one, so that a file of another format is reported as such.
+vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
+{
+  if (ext == ".vti")
+  {
+    auto reader = vtkSmartPointer<vtkXMLImageDataReader>::New();
+    if (!reader->CanReadFile(path.c_str()))
+    {
+      Unreadable(path, "not a VTK XML image data file");
+    }
+    reader->SetFileName(path.c_str());
+    return reader;
+  }
+  if (ext == ".vtk")
+  {
+    auto reader = vtkSmartPointer<vtkStructuredPointsReader>::New();
+    reader->SetFileName(path.c_str());
+    TakeVTKErrors();
+    if (!reader->IsFileStructuredPoints())
+    {
+      Unreadable(path, "not a legacy VTK structured points file");
+    }
+    return reader;
+  }
+  vtkSmartPointer<vtkImageReader2> reader;
+  const char* format = nullptr;
+  if (ext == ".mha" || ext == ".mhd")
+  {
+    reader = vtkSmartPointer<vtkMetaImageReader>::New();
+    format = "MetaImage";
+  }
+  else if (ext == ".nii" || ext == ".nii.gz")
+  {
+    reader = vtkSmartPointer<vtkNIFTIImageReader>::New();
+    format = "NIfTI";
+  }
+  else if (ext == ".nrrd" || ext == ".nhdr")
+  {
+    reader = vtkSmartPointer<vtkNrrdReader>::New();
+    format = "NRRD";
+  }
+  else
+  {
+    throw Error("unknown input format '" + (ext.empty() ? path : ext) + "' (known: " +
+      InputExtensions + ", or a DICOM directory)");
+  }
+  TakeVTKErrors();
+  if (!reader->CanReadFile(path.c_str()))
+  {
+    Unreadable(path, std::string("not a readable ") + format + " file");
+  }
+  reader->SetFileName(path.c_str());
+  return reader;
+}
+
+}
+
+vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
+{
+  vtkSmartPointer<vtkAlgorithm> reader;
+  if (IsDirectory(path))
+  {
+    auto dicom = vtkSmartPointer<vtkDICOMImageReader>::New();
+    dicom->SetDirectoryName(path.c_str());
+    reader = dicom;
+  }
+  else if (IsRegularFile(path))
+  {
+    reader = ReaderFor(path, Extension(path));
+  }
+  else
+  {
+    Unreadable(path, "no such file or directory");
+  }
+
+  vtkImageData* image = RunReader(reader, path);
+  if (!image || image->GetNumberOfPoints() == 0)
+  {
+    Unreadable(path, IsDirectory(path) ? "no DICOM series found in the directory"
+                                       : "the file holds no image data");
+  }
+  int dims[3];
+  image->GetDimensions(dims);
+  if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
+  {
+    Unreadable(path, "not a 3D volume (dimensions " + std::to_string(dims[0]) + "x" +
+        std::to_string(dims[1]) + "x" + std::to_string(dims[2]) + ")");
+  }
+  vtkPointData* pd = image->GetPointData();
+  if (!pd->GetScalars())
+  {
+    // Some writers do not flag the scalars: take the first point array.
+    for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
+    {
+      if (pd->GetArray(i))
+      {
+        pd->SetActiveScalars(pd->GetArray(i)->GetName());
+        break;
+      }
+    }
+  }
+  vtkDataArray* scalars = pd->GetScalars();
+  if (!scalars || scalars->GetNumberOfTuples() != image->GetNumberOfPoints())
+  {
+    Unreadable(path, "the volume has no point scalars");
+  }
+  double range[2];
+  scalars->GetRange(range, 0);
+  if (!std::isfinite(range[0]) || !std::isfinite(range[1]) || range[0] > range[1])
+  {
+    Unreadable(path, "the scalars have no finite values");
+  }
+
+  auto volume = vtkSmartPointer<vtkImageData>::New();
+  volume->ShallowCopy(image);
+  return volume;
+}
+
+std::string DescribeVolume(vtkImageData* volume)
+{
+  int dims[3];
+  volume->GetDimensions(dims);
+  vtkDataArray* scalars = volume->GetPointData()->GetScalars();
+  std::string text = std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" +
+    std::to_string(dims[2]);
+  if (scalars)
+  {
+    text += std::string(", ") + scalars->GetDataTypeAsString();
+    if (scalars->GetNumberOfComponents() > 1)
+    {
+      text += " (component 0 of " + std::to_string(scalars->GetNumberOfComponents()) + ")";
+    }
+  }
+  return text;
+}
+
+void CheckSurfaceOutput(const std::string& path)
+{
+  if (!IsSurfaceExtension(Extension(path)))
+  {
+    throw Error("unknown output format '" + path + "' (known: " + SurfaceExtensions + ")", 2);
+  }
+  CheckWritable(path, "surface");
+}
+
+void WriteSurface(vtkPolyData* surface, const std::string& path)
+{
+  std::string ext = Extension(path);
+  std::string tmp = TemporaryPathFor(path);
+  vtkSmartPointer<vtkAlgorithm> writer;
+  if (ext == ".vtp")
+  {
+    auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
+    w->SetFileName(tmp.c_str());
+    w->SetDataModeToAppended();
+    w->SetCompressorTypeToZLib();
+    writer = w;
+  }
+  else if (ext == ".ply")
+  {
+    auto w = vtkSmartPointer<vtkPLYWriter>::New();
+    w->SetFileName(tmp.c_str());
+    w->SetFileTypeToBinary();
+    writer = w;
+  }
+  else if (ext == ".stl")
+  {
+    auto w = vtkSmartPointer<vtkSTLWriter>::New();
+    w->SetFileName(tmp.c_str());
+    w->SetFileTypeToBinary();
+    writer = w;
+  }
+  else if (ext == ".obj")
+  {
+    auto w = vtkSmartPointer<vtkOBJWriter>::New();
+    w->SetFileName(tmp.c_str());
+    writer = w;
+  }
+  else
+  {
+    throw Error("unknown output format '" + path + "' (known: " + SurfaceExtensions + ")", 2);
+  }
+  writer->SetInputDataObject(0, surface);
+
+  TakeVTKErrors();
+  writer->Update();
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (!errors.empty() || writer->GetErrorCode() != 0 || !IsRegularFile(tmp))
+  {
+    RemoveFile(tmp);
+    throw Error("cannot write '" + path + "'" +
+      (errors.empty() ? std::string() : ": " + errors.front()));
+  }
+  CommitFile(tmp, path);
+}
+
+}

@@ -1,0 +1,36 @@
+// Volume input and surface output of the precisemc tool, through VTK's
+// readers and writers chosen by file extension.
+#ifndef precisemc_app_IO_h
+#define precisemc_app_IO_h
+
+#include "vtkSmartPointer.h"
+
+#include <string>
+
+class vtkImageData;
+class vtkPolyData;
+
+namespace pmcapp
+{
+
+// Reads a 3D volume with point scalars (the active scalars, else the
+// first point array): .vti, .vtk, .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr,
+// or a DICOM series when path is a directory. Throws pmcapp::Error with
+// the reason (missing, unknown format, unreadable, not a 3D volume, no
+// scalars).
+vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path);
+
+// "48x48x20, unsigned char" for the table.
+std::string DescribeVolume(vtkImageData* volume);
+
+// Throws pmcapp::Error unless path has a surface extension (.vtp, .ply,
+// .stl, .obj) and can be created.
+void CheckSurfaceOutput(const std::string& path);
+
+// Writes the surface by extension through a temporary file renamed onto
+// path. Throws pmcapp::Error.
+void WriteSurface(vtkPolyData* surface, const std::string& path);
+
+}
+
+#endif

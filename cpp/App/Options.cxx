@@ -1,0 +1,322 @@
+// Command-line parsing of the precisemc tool. Every mistake becomes one
+// pmcapp::Error line with exit status 2 (usage error), before any work.
+#include "Options.h"
+
+#include "Common.h"
+#include "Samples.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+namespace pmcapp
+{
+namespace
+{
+
+const char* const RuleNames[] = { "A", "A1", "A2", "B" };
+const char* const TopologyNames[] = { "trilinear", "classic" };
+const char* const NormalsNames[] = { "none", "gradient", "central" };
+
+std::string Lower(std::string text)
+{
+  std::transform(text.begin(), text.end(), text.begin(),
+    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+[[noreturn]] void Usage(const std::string& message)
+{
+  throw Error(message + " (see precisemc --help)", 2);
+}
+
+double ParseDouble(const std::string& option, const std::string& text)
+{
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  double value = std::strtod(begin, &end);
+  if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(value))
+  {
+    Usage(option + ": '" + text + "' is not a finite number");
+  }
+  return value;
+}
+
+// A non-negative integer no larger than max.
+unsigned long long ParseCount(
+  const std::string& option, const std::string& text, unsigned long long max)
+{
+  bool digits = !text.empty() &&
+    std::all_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c) != 0; });
+  if (!digits)
+  {
+    Usage(option + ": '" + text + "' is not a non-negative integer");
+  }
+  errno = 0;
+  unsigned long long value = std::strtoull(text.c_str(), nullptr, 10);
+  if (errno == ERANGE || value > max)
+  {
+    Usage(option + ": " + text + " is too large (at most " + std::to_string(max) + ")");
+  }
+  return value;
+}
+
+int ParseName(const std::string& option, const std::string& text, const char* const* names,
+  int count, bool caseSensitive = false)
+{
+  std::string wanted = caseSensitive ? text : Lower(text);
+  std::string known;
+  for (int i = 0; i < count; ++i)
+  {
+    std::string name = caseSensitive ? names[i] : Lower(names[i]);
+    if (wanted == name)
+    {
+      return i;
+    }
+    known += (i ? "|" : "") + std::string(names[i]);
+  }
+  Usage(option + ": unknown value '" + text + "' (expected " + known + ")");
+}
+
+}
+
+std::string RuleName(int rule)
+{
+  return rule >= 0 && rule < 4 ? RuleNames[rule] : "?";
+}
+
+std::string TopologyName(int topology)
+{
+  return topology >= 0 && topology < 2 ? TopologyNames[topology] : "?";
+}
+
+std::string NormalsName(int normals)
+{
+  return normals >= 0 && normals < 3 ? NormalsNames[normals] : "?";
+}
+
+Options ParseArguments(int argc, char* argv[])
+{
+  Options o;
+  bool optionsEnded = false;
+  for (int i = 1; i < argc; ++i)
+  {
+    std::string arg = argv[i];
+    if (optionsEnded || arg.empty() || arg[0] != '-' || arg == "-")
+    {
+      if (!o.Input.empty())
+      {
+        Usage("only one input is accepted, got '" + o.Input + "' and '" + arg + "'");
+      }
+      o.Input = arg;
+      if (o.Input.empty())
+      {
+        Usage("the input file name is empty");
+      }
+      continue;
+    }
+    if (arg == "--")
+    {
+      optionsEnded = true;
+      continue;
+    }
+
+    // --name=value, --name value, -x value or -xvalue.
+    std::string name = arg;
+    std::string inlineValue;
+    bool hasInline = false;
+    if (arg.compare(0, 2, "--") == 0)
+    {
+      size_t eq = arg.find('=');
+      if (eq != std::string::npos)
+      {
+        name = arg.substr(0, eq);
+        inlineValue = arg.substr(eq + 1);
+        hasInline = true;
+      }
+    }
+    else if (arg.size() > 2)
+    {
+      name = arg.substr(0, 2);
+      inlineValue = arg.substr(2);
+      hasInline = true;
+    }
+    auto value = [&]() -> std::string {
+      if (hasInline)
+      {
+        hasInline = false;
+        return inlineValue;
+      }
+      if (i + 1 >= argc)
+      {
+        Usage(name + " needs a value");
+      }
+      return argv[++i];
+    };
+    auto flag = [&]() {
+      if (hasInline)
+      {
+        Usage(name + " takes no value");
+      }
+    };
+
+    if (name == "-h" || name == "--help")
+    {
+      flag();
+      o.Help = true;
+    }
+    else if (name == "--version")
+    {
+      flag();
+      o.Version = true;
+    }
+    else if (name == "-q" || name == "--quiet")
+    {
+      flag();
+      o.Quiet = true;
+    }
+    else if (name == "-v" || name == "--value")
+    {
+      o.Values.push_back(ParseDouble(name, value()));
+    }
+    else if (name == "--epsilon")
+    {
+      o.Epsilon = ParseDouble(name, value());
+      if (o.Epsilon < 0.0)
+      {
+        Usage("--epsilon must be >= 0 (got " + General(o.Epsilon) + ")");
+      }
+    }
+    else if (name == "--max-level")
+    {
+      o.MaxLevel = static_cast<int>(ParseCount(name, value(), 10));
+    }
+    else if (name == "--rule")
+    {
+      o.Rule = ParseName(name, value(), RuleNames, 4);
+    }
+    else if (name == "--topology")
+    {
+      o.Topology = ParseName(name, value(), TopologyNames, 2);
+    }
+    else if (name == "--normals")
+    {
+      o.Normals = ParseName(name, value(), NormalsNames, 3);
+    }
+    else if (name == "--max-triangles")
+    {
+      o.MaxTriangles = ParseCount(name, value(), std::numeric_limits<unsigned long long>::max());
+    }
+    else if (name == "--threads")
+    {
+      o.Threads = static_cast<int>(ParseCount(name, value(), 4096));
+    }
+    else if (name == "-o" || name == "--output")
+    {
+      o.Output = value();
+      if (o.Output.empty())
+      {
+        Usage(name + ": the file name is empty");
+      }
+    }
+    else if (name == "--compare")
+    {
+      o.Compare = value();
+    }
+    else if (name == "--distance")
+    {
+      o.Distance = value();
+    }
+    else if (name == "--sample")
+    {
+      std::string sample = Lower(value());
+      std::vector<std::string> names = SampleNames();
+      if (sample != "all" && std::find(names.begin(), names.end(), sample) == names.end())
+      {
+        std::string known;
+        for (const auto& n : names)
+        {
+          known += n + "|";
+        }
+        Usage("--sample: unknown sample '" + sample + "' (expected " + known + "all)");
+      }
+      o.Sample = sample;
+    }
+    else
+    {
+      Usage("unknown option '" + name + "'");
+    }
+  }
+
+  if (!o.Input.empty() && !o.Sample.empty())
+  {
+    Usage("give either an input file or --sample, not both");
+  }
+  for (const std::string* png : { &o.Compare, &o.Distance })
+  {
+    if (!png->empty() && Extension(*png) != ".png")
+    {
+      Usage("pictures are written as PNG: '" + *png + "' does not end in .png");
+    }
+  }
+  if (!o.Compare.empty() && o.Compare == o.Distance)
+  {
+    Usage("--compare and --distance name the same file '" + o.Compare + "'");
+  }
+  return o;
+}
+
+std::string UsageText()
+{
+  return R"(usage: precisemc [INPUT] [options]
+
+Extracts the isosurface of a volume with vtkPreciseMarchingCubes: Marching
+Cubes with the topology of the trilinear interpolant, refined adaptively
+onto the trilinear isosurface. Prints a table of each run.
+
+INPUT is a volume file (.vti, legacy .vtk structured points, .mha/.mhd,
+.nii/.nii.gz, .nrrd/.nhdr) or a directory holding a DICOM series. Without
+INPUT the built-in samples are used (as with --sample all).
+
+options:
+  -v, --value V         isovalue (repeatable; the surfaces are appended).
+                        Default: the sample's isovalue, or for a file the
+                        middle of its scalar range
+      --sample NAME     built-in volume: tube, atoms, ml or all
+      --epsilon E       largest distance of a triangle's sample points to
+                        the trilinear isosurface, in cells; 0 = plain
+                        Marching Cubes (default 0.01)
+      --max-level L     maximum refinement level, 0..10 (default 5)
+      --rule R          refinement rule A, A1, A2 or B (default A1)
+      --topology T      trilinear or classic (vtkMarchingCubes's table);
+                        default trilinear
+      --normals N       point normals: none, gradient (of the trilinear
+                        interpolant) or central (differences); default
+                        gradient
+      --max-triangles N cap on the output triangles of each isovalue;
+                        0 = no cap (default)
+      --threads N       worker threads; 0 = all cores (default)
+  -o, --output FILE     write the surface: .vtp, .ply, .stl or .obj. With
+                        several volumes (--sample all), one file each:
+                        FILE with "-<sample>" before the extension
+      --compare PNG     picture of vtkMarchingCubes (left) beside PreciseMC
+                        (right), one row per volume
+      --distance PNG    picture of the Marching Cubes surface coloured by
+                        its distance to the refined surface
+  -q, --quiet           print nothing but errors
+  -h, --help            print this help
+      --version         print the version
+
+Pictures are rendered off screen; without $DISPLAY the tool runs itself
+under xvfb-run (or starts Xvfb). Files are written through a temporary
+file and renamed, so a failed run leaves no partial output. On error, one
+line "precisemc: error: ..." goes to stderr and the exit status is 1 (2
+for a command-line mistake).
+)";
+}
+
+}

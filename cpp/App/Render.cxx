@@ -1,0 +1,424 @@
+// Off-screen pictures: vtkMarchingCubes beside PreciseMC (--compare) and
+// the MC surface coloured by its distance to the refined one (--distance).
+#include "Render.h"
+
+#include "Common.h"
+
+#include "vtkActor.h"
+#include "vtkCamera.h"
+#include "vtkCellArray.h"
+#include "vtkCellData.h"
+#include "vtkColorTransferFunction.h"
+#include "vtkDataArray.h"
+#include "vtkDistancePolyDataFilter.h"
+#include "vtkDoubleArray.h"
+#include "vtkImageData.h"
+#include "vtkLightKit.h"
+#include "vtkMarchingCubes.h"
+#include "vtkMatrix3x3.h"
+#include "vtkMatrix4x4.h"
+#include "vtkNew.h"
+#include "vtkPNGWriter.h"
+#include "vtkPointData.h"
+#include "vtkPolyData.h"
+#include "vtkPolyDataMapper.h"
+#include "vtkProperty.h"
+#include "vtkRenderWindow.h"
+#include "vtkRenderer.h"
+#include "vtkScalarBarActor.h"
+#include "vtkTextActor.h"
+#include "vtkTextProperty.h"
+#include "vtkTransform.h"
+#include "vtkTransformPolyDataFilter.h"
+#include "vtkWindowToImageFilter.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pmcapp
+{
+namespace
+{
+
+const double SurfaceColor[3] = { 0.90, 0.82, 0.66 };
+const double EdgeColor[3] = { 0.22, 0.20, 0.26 };
+const double TextColor[3] = { 0.10, 0.10, 0.14 };
+const double Background[3] = { 1.0, 1.0, 1.0 };
+const double Background2[3] = { 0.80, 0.84, 0.90 };
+
+vtkIdType CountTriangles(vtkPolyData* pd)
+{
+  return pd ? pd->GetNumberOfPolys() : 0;
+}
+
+// world -> index space of the volume (cell units).
+vtkSmartPointer<vtkMatrix4x4> WorldToIndex(vtkImageData* image)
+{
+  auto m = vtkSmartPointer<vtkMatrix4x4>::New();
+  double origin[3], spacing[3];
+  image->GetOrigin(origin);
+  image->GetSpacing(spacing);
+  vtkMatrix3x3* d = image->GetDirectionMatrix();
+  // index_i = sum_j D[j][i] (w_j - o_j) / s_i
+  for (int i = 0; i < 3; ++i)
+  {
+    double t = 0.0;
+    for (int j = 0; j < 3; ++j)
+    {
+      double a = d->GetElement(j, i) / spacing[i];
+      m->SetElement(i, j, a);
+      t -= a * origin[j];
+    }
+    m->SetElement(i, 3, t);
+  }
+  return m;
+}
+
+vtkSmartPointer<vtkPolyData> Transformed(vtkPolyData* input, vtkMatrix4x4* matrix)
+{
+  vtkNew<vtkTransform> transform;
+  transform->SetMatrix(matrix);
+  vtkNew<vtkTransformPolyDataFilter> filter;
+  filter->SetInputData(input);
+  filter->SetTransform(transform);
+  filter->Update();
+  auto out = vtkSmartPointer<vtkPolyData>::New();
+  out->ShallowCopy(filter->GetOutput());
+  return out;
+}
+
+void AddText(vtkRenderer* renderer, const std::string& text, double x, double y, int size,
+  int hjust, bool top, bool bold = false)
+{
+  vtkNew<vtkTextActor> actor;
+  actor->SetInput(text.c_str());
+  actor->SetTextScaleModeToNone();
+  actor->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+  actor->SetPosition(x, y);
+  vtkTextProperty* p = actor->GetTextProperty();
+  p->SetFontSize(size);
+  p->SetColor(TextColor[0], TextColor[1], TextColor[2]);
+  p->SetBold(bold);
+  p->SetFontFamilyToArial();
+  if (hjust == 0)
+  {
+    p->SetJustificationToLeft();
+  }
+  else if (hjust == 1)
+  {
+    p->SetJustificationToCentered();
+  }
+  else
+  {
+    p->SetJustificationToRight();
+  }
+  if (top)
+  {
+    p->SetVerticalJustificationToTop();
+  }
+  else
+  {
+    p->SetVerticalJustificationToBottom();
+  }
+  renderer->AddActor2D(actor);
+}
+
+vtkSmartPointer<vtkRenderer> NewRenderer(double x0, double y0, double x1, double y1)
+{
+  auto renderer = vtkSmartPointer<vtkRenderer>::New();
+  renderer->SetViewport(x0, y0, x1, y1);
+  renderer->SetBackground(Background[0], Background[1], Background[2]);
+  renderer->SetBackground2(Background2[0], Background2[1], Background2[2]);
+  renderer->GradientBackgroundOn();
+  renderer->UseFXAAOn();
+  vtkNew<vtkLightKit> lights;
+  lights->AddLightsToRenderer(renderer);
+  return renderer;
+}
+
+vtkSmartPointer<vtkActor> SurfaceActor(vtkPolyData* pd, bool edges)
+{
+  vtkNew<vtkPolyDataMapper> mapper;
+  mapper->SetInputData(pd);
+  mapper->ScalarVisibilityOff();
+  auto actor = vtkSmartPointer<vtkActor>::New();
+  actor->SetMapper(mapper);
+  vtkProperty* p = actor->GetProperty();
+  p->SetColor(SurfaceColor[0], SurfaceColor[1], SurfaceColor[2]);
+  p->SetInterpolationToFlat();
+  p->SetAmbient(0.15);
+  p->SetDiffuse(0.8);
+  p->SetSpecular(0.15);
+  p->SetSpecularPower(30.0);
+  p->BackfaceCullingOff();
+  if (edges)
+  {
+    p->EdgeVisibilityOn();
+    p->SetEdgeColor(EdgeColor[0], EdgeColor[1], EdgeColor[2]);
+    p->SetLineWidth(1.0);
+  }
+  return actor;
+}
+
+// A three-quarter view of the bounds of the data.
+void FrameCamera(vtkRenderer* renderer, vtkPolyData* pd, vtkImageData* volume)
+{
+  double bounds[6];
+  if (pd && pd->GetNumberOfPoints() > 0)
+  {
+    pd->GetBounds(bounds);
+  }
+  else
+  {
+    volume->GetBounds(bounds);
+  }
+  vtkCamera* camera = renderer->GetActiveCamera();
+  double center[3] = { 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3]),
+    0.5 * (bounds[4] + bounds[5]) };
+  camera->SetFocalPoint(center);
+  camera->SetPosition(center[0], center[1] - 1.0, center[2]);
+  camera->SetViewUp(0.0, 0.0, 1.0);
+  camera->Azimuth(-35.0);
+  camera->Elevation(35.0);
+  camera->OrthogonalizeViewUp();
+  renderer->ResetCamera(bounds);
+  camera->Zoom(1.25);
+}
+
+// The window is rendered off screen and saved through a temporary file.
+void SavePNG(vtkRenderWindow* window, const std::string& png)
+{
+  window->Render();
+  vtkNew<vtkWindowToImageFilter> grab;
+  grab->SetInput(window);
+  grab->SetInputBufferTypeToRGB();
+  grab->ReadFrontBufferOff();
+  grab->Update();
+  TakeVTKErrors();
+  std::string tmp = TemporaryPathFor(png);
+  vtkNew<vtkPNGWriter> writer;
+  writer->SetInputConnection(grab->GetOutputPort());
+  writer->SetFileName(tmp.c_str());
+  writer->Write();
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (writer->GetErrorCode() != 0 || !errors.empty() || !IsRegularFile(tmp))
+  {
+    RemoveFile(tmp);
+    throw Error("cannot write picture '" + png + "'" +
+      (errors.empty() ? std::string() : ": " + errors.front()));
+  }
+  CommitFile(tmp, png);
+}
+
+bool ShowEdges(vtkIdType triangles, int width, int height)
+{
+  // Edges help while triangles cover a dozen pixels or more on average.
+  return triangles > 0 && triangles * 12 < static_cast<vtkIdType>(width) * height;
+}
+
+}
+
+vtkSmartPointer<vtkPolyData> RunMarchingCubes(
+  vtkImageData* volume, const std::vector<double>& values)
+{
+  vtkNew<vtkMarchingCubes> mc;
+  mc->SetInputData(volume);
+  for (size_t i = 0; i < values.size(); ++i)
+  {
+    mc->SetValue(static_cast<int>(i), values[i]);
+  }
+  mc->ComputeNormalsOn();
+  mc->ComputeScalarsOff();
+  mc->ComputeGradientsOff();
+  mc->Update();
+  auto out = vtkSmartPointer<vtkPolyData>::New();
+  out->ShallowCopy(mc->GetOutput());
+
+  // vtkMarchingCubes ignores the direction matrix: apply it like the
+  // PreciseMC filter does (p' = origin + D (p - origin)).
+  vtkMatrix3x3* d = volume->GetDirectionMatrix();
+  if (!d->IsIdentity())
+  {
+    double origin[3];
+    volume->GetOrigin(origin);
+    vtkNew<vtkMatrix4x4> m;
+    for (int i = 0; i < 3; ++i)
+    {
+      double t = origin[i];
+      for (int j = 0; j < 3; ++j)
+      {
+        m->SetElement(i, j, d->GetElement(i, j));
+        t -= d->GetElement(i, j) * origin[j];
+      }
+      m->SetElement(i, 3, t);
+    }
+    out = Transformed(out, m);
+  }
+  return out;
+}
+
+void ComputeDistance(Panel& panel)
+{
+  auto result = vtkSmartPointer<vtkPolyData>::New();
+  result->ShallowCopy(panel.MC);
+  vtkIdType n = panel.MC->GetNumberOfPoints();
+  vtkNew<vtkDoubleArray> distance;
+  distance->SetName("DistanceToRefined");
+  distance->SetNumberOfTuples(n);
+  distance->Fill(0.0);
+  panel.MaxDistance = 0.0;
+  panel.MeanDistance = 0.0;
+  if (n > 0 && CountTriangles(panel.Refined) > 0)
+  {
+    auto toIndex = WorldToIndex(panel.Volume);
+    auto mcIndex = Transformed(panel.MC, toIndex);
+    auto refinedIndex = Transformed(panel.Refined, toIndex);
+    // Only the geometry matters.
+    mcIndex->GetPointData()->Initialize();
+    refinedIndex->GetPointData()->Initialize();
+    refinedIndex->GetCellData()->Initialize();
+    vtkNew<vtkDistancePolyDataFilter> filter;
+    filter->SetInputData(0, mcIndex);
+    filter->SetInputData(1, refinedIndex);
+    filter->SignedDistanceOff();
+    filter->ComputeSecondDistanceOff();
+    filter->NegateDistanceOff();
+    filter->Update();
+    vtkDataArray* d = filter->GetOutput()->GetPointData()->GetArray("Distance");
+    if (d && d->GetNumberOfTuples() == n)
+    {
+      double sum = 0.0;
+      for (vtkIdType i = 0; i < n; ++i)
+      {
+        double v = std::fabs(d->GetTuple1(i));
+        distance->SetValue(i, v);
+        sum += v;
+        panel.MaxDistance = std::max(panel.MaxDistance, v);
+      }
+      panel.MeanDistance = sum / static_cast<double>(n);
+    }
+  }
+  result->GetPointData()->AddArray(distance);
+  result->GetPointData()->SetActiveScalars("DistanceToRefined");
+  panel.Distance = result;
+}
+
+void RenderCompare(const std::vector<Panel>& panels, const std::string& png)
+{
+  const int rows = static_cast<int>(panels.size());
+  const int width = 1600;
+  const int rowHeight = rows == 1 ? 800 : 560;
+  const int height = rowHeight * rows;
+  vtkNew<vtkRenderWindow> window;
+  window->SetOffScreenRendering(1);
+  window->SetSize(width, height);
+  window->SetMultiSamples(0);
+  window->SetWindowName("precisemc --compare");
+
+  for (int r = 0; r < rows; ++r)
+  {
+    const Panel& panel = panels[r];
+    double y0 = 1.0 - static_cast<double>(r + 1) / rows;
+    double y1 = 1.0 - static_cast<double>(r) / rows;
+    auto left = NewRenderer(0.0, y0, 0.5, y1);
+    auto right = NewRenderer(0.5, y0, 1.0, y1);
+    vtkIdType mcTriangles = CountTriangles(panel.MC);
+    vtkIdType refinedTriangles = CountTriangles(panel.Refined);
+    int pixels = width / 2;
+    left->AddActor(SurfaceActor(panel.MC, ShowEdges(mcTriangles, pixels, rowHeight)));
+    right->AddActor(SurfaceActor(panel.Refined, ShowEdges(refinedTriangles, pixels, rowHeight)));
+    FrameCamera(right, panel.Refined, panel.Volume);
+    left->SetActiveCamera(right->GetActiveCamera());
+
+    int titleSize = rows == 1 ? 24 : 20;
+    AddText(left, "vtkMarchingCubes: " + Grouped(mcTriangles) + " triangles", 0.5, 0.975,
+      titleSize, 1, true, true);
+    AddText(right, panel.RefinedLabel + ": " + Grouped(refinedTriangles) + " triangles", 0.5,
+      0.975, titleSize, 1, true, true);
+    AddText(left, panel.Name, 0.02, 0.02, titleSize - 2, 0, false);
+    window->AddRenderer(left);
+    window->AddRenderer(right);
+  }
+  SavePNG(window, png);
+}
+
+void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
+{
+  const int cols = static_cast<int>(panels.size());
+  const int width = cols == 1 ? 1000 : 1800;
+  const int height = cols == 1 ? 860 : 760;
+  vtkNew<vtkRenderWindow> window;
+  window->SetOffScreenRendering(1);
+  window->SetSize(width, height);
+  window->SetMultiSamples(0);
+  window->SetWindowName("precisemc --distance");
+
+  for (int c = 0; c < cols; ++c)
+  {
+    const Panel& panel = panels[c];
+    auto renderer = NewRenderer(static_cast<double>(c) / cols, 0.0,
+      static_cast<double>(c + 1) / cols, 1.0);
+    double top = panel.MaxDistance > 0.0 ? panel.MaxDistance : 1e-3;
+
+    // Dark blue (on the refined surface) to yellow (farthest), perceptually
+    // ordered like viridis/plasma.
+    vtkNew<vtkColorTransferFunction> colors;
+    colors->SetColorSpaceToLab();
+    colors->AddRGBPoint(0.0 * top, 0.050, 0.030, 0.530);
+    colors->AddRGBPoint(0.25 * top, 0.420, 0.000, 0.660);
+    colors->AddRGBPoint(0.50 * top, 0.720, 0.200, 0.470);
+    colors->AddRGBPoint(0.75 * top, 0.930, 0.470, 0.240);
+    colors->AddRGBPoint(1.0 * top, 0.940, 0.970, 0.130);
+
+    vtkNew<vtkPolyDataMapper> mapper;
+    mapper->SetInputData(panel.Distance);
+    mapper->SetLookupTable(colors);
+    mapper->SetScalarModeToUsePointFieldData();
+    mapper->SelectColorArray("DistanceToRefined");
+    mapper->SetScalarRange(0.0, top);
+    mapper->ScalarVisibilityOn();
+    mapper->InterpolateScalarsBeforeMappingOn();
+    vtkNew<vtkActor> actor;
+    actor->SetMapper(mapper);
+    actor->GetProperty()->SetAmbient(0.2);
+    actor->GetProperty()->SetDiffuse(0.8);
+    actor->GetProperty()->SetSpecular(0.1);
+    renderer->AddActor(actor);
+    FrameCamera(renderer, panel.Distance, panel.Volume);
+    renderer->GetActiveCamera()->Zoom(0.92);
+
+    vtkNew<vtkScalarBarActor> bar;
+    bar->SetLookupTable(colors);
+    bar->SetOrientationToHorizontal();
+    bar->SetTitle("distance to refined surface (cells)");
+    bar->SetNumberOfLabels(5);
+    bar->SetLabelFormat(top < 0.1 ? "%.3f" : "%.2f");
+    bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+    bar->SetPosition(0.12, 0.02);
+    bar->SetWidth(0.76);
+    bar->SetHeight(0.13);
+    bar->SetBarRatio(0.3);
+    bar->UnconstrainedFontSizeOn();
+    for (vtkTextProperty* p : { bar->GetTitleTextProperty(), bar->GetLabelTextProperty() })
+    {
+      p->SetColor(TextColor[0], TextColor[1], TextColor[2]);
+      p->SetFontFamilyToArial();
+      p->ShadowOff();
+      p->ItalicOff();
+      p->SetFontSize(16);
+    }
+    bar->GetTitleTextProperty()->BoldOn();
+    renderer->AddActor2D(bar);
+
+    AddText(renderer, panel.Name + ": vtkMarchingCubes vs " + panel.RefinedLabel, 0.5, 0.975,
+      20, 1, true, true);
+    AddText(renderer,
+      "max " + Fixed(panel.MaxDistance, 3) + ", mean " + Fixed(panel.MeanDistance, 3) +
+        " cells",
+      0.5, 0.925, 18, 1, true);
+    window->AddRenderer(renderer);
+  }
+  SavePNG(window, png);
+}
+
+}

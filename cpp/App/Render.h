@@ -1,0 +1,50 @@
+// Off-screen pictures of the precisemc tool: --compare and --distance.
+#ifndef precisemc_app_Render_h
+#define precisemc_app_Render_h
+
+#include "vtkSmartPointer.h"
+
+#include <string>
+#include <vector>
+
+class vtkImageData;
+class vtkPolyData;
+
+namespace pmcapp
+{
+
+// One data set in a picture.
+struct Panel
+{
+  std::string Name;                     // "tube", or the input file name
+  vtkSmartPointer<vtkImageData> Volume; // the input volume
+  vtkSmartPointer<vtkPolyData> MC;      // vtkMarchingCubes's surface (world coordinates)
+  vtkSmartPointer<vtkPolyData> Refined; // PreciseMC's surface (world coordinates)
+  std::string RefinedLabel;             // e.g. "PreciseMC (eps 0.01, level <= 5)"
+
+  // Filled by ComputeDistance(): MC coloured by its distance to Refined.
+  vtkSmartPointer<vtkPolyData> Distance;
+  double MaxDistance = 0.0;
+  double MeanDistance = 0.0;
+};
+
+// vtkMarchingCubes on the volume at the given values, in the same world
+// coordinates as vtkPreciseMarchingCubes (direction matrix applied).
+vtkSmartPointer<vtkPolyData> RunMarchingCubes(
+  vtkImageData* volume, const std::vector<double>& values);
+
+// Distance of every MC point to the refined surface, in cell units (index
+// space of the volume): fills panel.Distance, MaxDistance, MeanDistance.
+void ComputeDistance(Panel& panel);
+
+// Renders MC (left) beside the refined surface (right), one row per
+// panel, into a PNG (temporary file + rename). Throws pmcapp::Error.
+void RenderCompare(const std::vector<Panel>& panels, const std::string& png);
+
+// Renders each panel's MC surface coloured by Distance, with a colour bar,
+// into a PNG. Throws pmcapp::Error.
+void RenderDistance(const std::vector<Panel>& panels, const std::string& png);
+
+}
+
+#endif

@@ -1,0 +1,441 @@
+// precisemc: the command-line tool. Reads a volume (or generates the
+// built-in samples), runs vtkPreciseMarchingCubes, prints a table of each
+// run, writes the surface and renders the comparison pictures.
+//
+// The order of the work is chosen so that a mistake costs nothing: the
+// command line, the output paths and every isovalue are checked before
+// any extraction, and every file is written through a temporary file.
+#include "Common.h"
+#include "Display.h"
+#include "IO.h"
+#include "Options.h"
+#include "Render.h"
+#include "Samples.h"
+
+#include "vtkCommand.h"
+#include "vtkDataArray.h"
+#include "vtkImageData.h"
+#include "vtkNew.h"
+#include "vtkPointData.h"
+#include "vtkPolyData.h"
+#include "vtkPreciseMarchingCubes.h"
+#include "vtkVersion.h"
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include <unistd.h>
+
+namespace
+{
+
+using pmcapp::Error;
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start)
+{
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A volume to contour, with what the table says about it.
+struct DataSet
+{
+  std::string Name;        // sample name or file name
+  std::string Description; // one line
+  std::string LoadPhase;   // "generate" or "read"
+  double LoadSeconds = 0.0;
+  std::vector<double> Values;
+  vtkSmartPointer<vtkImageData> Volume;
+};
+
+// A progress bar on stderr, drawn only on a terminal and only once the
+// extraction has taken more than a second (short runs stay quiet).
+class ProgressBar : public vtkCommand
+{
+public:
+  static ProgressBar* New() { return new ProgressBar; }
+
+  void Start(const std::string& label, bool enabled)
+  {
+    this->Label = label;
+    this->Enabled = enabled && isatty(STDERR_FILENO);
+    this->Begin = Clock::now();
+    this->Drawn = false;
+  }
+
+  void Execute(vtkObject*, unsigned long, void* callData) override
+  {
+    if (!this->Enabled || SecondsSince(this->Begin) < 1.0 || !callData)
+    {
+      return;
+    }
+    double fraction = *static_cast<double*>(callData);
+    fraction = fraction < 0.0 ? 0.0 : (fraction > 1.0 ? 1.0 : fraction);
+    const int width = 30;
+    int filled = static_cast<int>(fraction * width + 0.5);
+    std::fprintf(stderr, "\r%s [%s%s] %3d%%", this->Label.c_str(),
+      std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
+      static_cast<int>(fraction * 100.0 + 0.5));
+    std::fflush(stderr);
+    this->Drawn = true;
+  }
+
+  // Erases the bar so that the table starts on a clean line.
+  void Finish()
+  {
+    if (this->Drawn)
+    {
+      std::fprintf(stderr, "\r\033[K");
+      std::fflush(stderr);
+    }
+    this->Drawn = false;
+  }
+
+private:
+  std::string Label;
+  bool Enabled = false;
+  bool Drawn = false;
+  Clock::time_point Begin;
+};
+
+std::string BaseName(const std::string& path)
+{
+  std::string p = path;
+  while (p.size() > 1 && p.back() == '/')
+  {
+    p.pop_back();
+  }
+  size_t slash = p.find_last_of('/');
+  return slash == std::string::npos ? p : p.substr(slash + 1);
+}
+
+std::string ValuesText(const std::vector<double>& values)
+{
+  std::string text;
+  for (double v : values)
+  {
+    text += (text.empty() ? "" : ", ") + pmcapp::General(v);
+  }
+  return text;
+}
+
+std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
+{
+  std::vector<DataSet> sets;
+  if (!o.Input.empty())
+  {
+    DataSet d;
+    Clock::time_point start = Clock::now();
+    d.Volume = pmcapp::ReadVolume(o.Input);
+    d.LoadSeconds = SecondsSince(start);
+    d.LoadPhase = "read";
+    d.Name = BaseName(o.Input);
+    d.Description = pmcapp::DescribeVolume(d.Volume);
+    double range[2];
+    d.Volume->GetPointData()->GetScalars()->GetRange(range, 0);
+    if (o.Values.empty())
+    {
+      d.Values.push_back(0.5 * (range[0] + range[1]));
+      if (!o.Quiet)
+      {
+        std::cout << "isovalue " << pmcapp::General(d.Values[0])
+                  << ": the middle of the scalar range [" << pmcapp::General(range[0]) << ", "
+                  << pmcapp::General(range[1]) << "] of " << d.Name << " (set it with -v)"
+                  << std::endl;
+      }
+    }
+    sets.push_back(d);
+  }
+  else
+  {
+    std::vector<std::string> names;
+    if (o.Sample.empty() || o.Sample == "all")
+    {
+      names = pmcapp::SampleNames();
+    }
+    else
+    {
+      names.push_back(o.Sample);
+    }
+    for (const auto& name : names)
+    {
+      DataSet d;
+      Clock::time_point start = Clock::now();
+      pmcapp::Sample s = pmcapp::MakeSample(name);
+      d.LoadSeconds = SecondsSince(start);
+      d.LoadPhase = "generate";
+      d.Name = s.Name;
+      d.Description = s.Description;
+      d.Volume = s.Volume;
+      if (o.Values.empty())
+      {
+        d.Values.push_back(s.IsoValue);
+      }
+      sets.push_back(d);
+    }
+  }
+
+  // Every isovalue must cut the data: outside the range the surface is
+  // empty, which is almost certainly a mistake.
+  for (auto& d : sets)
+  {
+    if (!o.Values.empty())
+    {
+      d.Values = o.Values;
+    }
+    double range[2];
+    d.Volume->GetPointData()->GetScalars()->GetRange(range, 0);
+    for (double v : d.Values)
+    {
+      if (v < range[0] || v > range[1])
+      {
+        throw Error("isovalue " + pmcapp::General(v) + " is outside the scalar range [" +
+          pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name);
+      }
+    }
+  }
+  return sets;
+}
+
+void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels)
+{
+  f->SetEpsilon(o.Epsilon);
+  f->SetMaxLevel(o.MaxLevel);
+  f->SetRule(o.Rule);
+  f->SetTopology(o.Topology);
+  f->SetComputeNormals(o.Normals != 0);
+  if (o.Normals != 0)
+  {
+    f->SetNormalMode(o.Normals);
+  }
+  f->SetMaxTriangles(static_cast<vtkTypeUInt64>(o.MaxTriangles));
+  f->SetNumberOfThreads(o.Threads);
+  f->ComputeScalarsOn();
+  f->SetComputeLevels(levels);
+}
+
+std::string Row(const std::string& key, const std::string& value)
+{
+  std::string padded = "  " + key;
+  padded.resize(22, ' ');
+  return padded + value + "\n";
+}
+
+std::string Seconds(double s)
+{
+  return pmcapp::Fixed(s, s < 10.0 ? 3 : 1) + " s";
+}
+
+}
+
+int main(int argc, char* argv[])
+{
+  pmcapp::CaptureVTKMessages();
+  try
+  {
+    pmcapp::Options o = pmcapp::ParseArguments(argc, argv);
+    if (o.Help)
+    {
+      std::cout << pmcapp::UsageText();
+      return 0;
+    }
+    if (o.Version)
+    {
+      std::cout << "precisemc " << PRECISEMC_APP_VERSION << " (VTK "
+                << vtkVersion::GetVTKVersion() << ")" << std::endl;
+      return 0;
+    }
+
+    // Outputs first: a bad path should not cost an extraction.
+    if (!o.Output.empty())
+    {
+      pmcapp::CheckSurfaceOutput(o.Output);
+    }
+    if (!o.Compare.empty())
+    {
+      pmcapp::CheckWritable(o.Compare, "picture");
+    }
+    if (!o.Distance.empty())
+    {
+      pmcapp::CheckWritable(o.Distance, "picture");
+    }
+    const bool pictures = !o.Compare.empty() || !o.Distance.empty();
+    if (pictures)
+    {
+      pmcapp::EnsureDisplay(argc, argv);
+    }
+
+    std::vector<DataSet> sets = LoadDataSets(o);
+    const bool several = sets.size() > 1;
+
+    std::string refinedLabel = o.Epsilon > 0.0 && o.MaxLevel > 0
+      ? "PreciseMC (eps " + pmcapp::General(o.Epsilon) + ", level <= " +
+        std::to_string(o.MaxLevel) + ")"
+      : "PreciseMC (no refinement)";
+    std::vector<pmcapp::Panel> panels;
+    vtkNew<ProgressBar> progress;
+
+    for (auto& d : sets)
+    {
+      std::string output = o.Output.empty() ? std::string()
+        : several ? pmcapp::WithSuffix(o.Output, d.Name) : o.Output;
+
+      vtkNew<vtkPreciseMarchingCubes> filter;
+      filter->SetInputData(d.Volume);
+      for (size_t i = 0; i < d.Values.size(); ++i)
+      {
+        filter->SetValue(static_cast<int>(i), d.Values[i]);
+      }
+      // The refinement level of each triangle is kept where the format can
+      // hold a cell array.
+      Configure(filter, o, pmcapp::Extension(output) == ".vtp");
+      filter->AddObserver(vtkCommand::ProgressEvent, progress);
+      progress->Start(d.Name, !o.Quiet);
+
+      Clock::time_point start = Clock::now();
+      pmcapp::TakeVTKErrors();
+      filter->Update();
+      double extractSeconds = SecondsSince(start);
+      progress->Finish();
+      std::vector<std::string> errors = pmcapp::TakeVTKErrors();
+      if (!errors.empty())
+      {
+        throw Error(d.Name + ": " + errors.front());
+      }
+      pmcapp::TakeVTKWarnings();
+
+      pmcapp::Panel panel;
+      panel.Name = d.Name;
+      panel.Volume = d.Volume;
+      panel.Refined = vtkSmartPointer<vtkPolyData>::New();
+      panel.Refined->ShallowCopy(filter->GetOutput());
+      panel.RefinedLabel = refinedLabel;
+
+      double mcSeconds = 0.0, distanceSeconds = 0.0, writeSeconds = 0.0;
+      if (pictures)
+      {
+        start = Clock::now();
+        panel.MC = pmcapp::RunMarchingCubes(d.Volume, d.Values);
+        mcSeconds = SecondsSince(start);
+      }
+      if (!o.Distance.empty())
+      {
+        start = Clock::now();
+        pmcapp::ComputeDistance(panel);
+        distanceSeconds = SecondsSince(start);
+      }
+      if (!output.empty())
+      {
+        start = Clock::now();
+        pmcapp::WriteSurface(panel.Refined, output);
+        writeSeconds = SecondsSince(start);
+      }
+
+      if (!o.Quiet)
+      {
+        int dims[3];
+        d.Volume->GetDimensions(dims);
+        unsigned long long cells = static_cast<unsigned long long>(dims[0] - 1) *
+          static_cast<unsigned long long>(dims[1] - 1) * static_cast<unsigned long long>(dims[2] - 1);
+        unsigned long long mc = filter->GetNumberOfMCTriangles();
+        unsigned long long refined = filter->GetNumberOfRefinedTriangles();
+
+        std::ostringstream table;
+        table << d.Name << ": " << d.Description << "\n";
+        table << Row(d.Values.size() > 1 ? "isovalues" : "isovalue", ValuesText(d.Values));
+        std::string cellText = pmcapp::Grouped(cells) + " (" +
+          pmcapp::Grouped(filter->GetNumberOfAmbiguousCells()) + " ambiguous";
+        if (filter->GetNumberOfSkippedCells() > 0)
+        {
+          cellText += ", " + pmcapp::Grouped(filter->GetNumberOfSkippedCells()) + " non-finite";
+        }
+        table << Row("cells", cellText + ")");
+        table << Row("MC triangles", pmcapp::Grouped(mc));
+        std::string outText = pmcapp::Grouped(refined);
+        if (mc > 0)
+        {
+          outText += " (x" + pmcapp::Fixed(static_cast<double>(refined) / mc, 2) + ")";
+        }
+        if (filter->GetBudgetReached())
+        {
+          outText += ", capped by --max-triangles";
+        }
+        table << Row("output triangles", outText);
+        table << Row("maxL / meanL",
+          std::to_string(filter->GetMaxLevelReached()) + " / " +
+            pmcapp::Fixed(filter->GetMeanLevel(), 2));
+        if (filter->GetNumberOfFacesAboveEpsilon() > 0)
+        {
+          table << Row("above epsilon",
+            pmcapp::Grouped(filter->GetNumberOfFacesAboveEpsilon()) +
+              " triangles at the level cap");
+        }
+        if (!o.Distance.empty())
+        {
+          table << Row("MC to refined", "max " + pmcapp::Fixed(panel.MaxDistance, 3) + ", mean " +
+              pmcapp::Fixed(panel.MeanDistance, 3) + " cells");
+        }
+        std::string times = d.LoadPhase + " " + Seconds(d.LoadSeconds) + " | extract " +
+          Seconds(extractSeconds);
+        if (pictures)
+        {
+          times += " | vtkMarchingCubes " + Seconds(mcSeconds);
+        }
+        if (!o.Distance.empty())
+        {
+          times += " | distance " + Seconds(distanceSeconds);
+        }
+        if (!output.empty())
+        {
+          times += " | write " + Seconds(writeSeconds);
+        }
+        table << Row("time", times);
+        if (!output.empty())
+        {
+          table << Row("written", output);
+        }
+        std::cout << table.str() << std::flush;
+      }
+      panels.push_back(panel);
+    }
+
+    if (!o.Compare.empty())
+    {
+      Clock::time_point start = Clock::now();
+      pmcapp::RenderCompare(panels, o.Compare);
+      if (!o.Quiet)
+      {
+        std::cout << "compare picture: " << o.Compare << " (" << Seconds(SecondsSince(start))
+                  << ")" << std::endl;
+      }
+    }
+    if (!o.Distance.empty())
+    {
+      Clock::time_point start = Clock::now();
+      pmcapp::RenderDistance(panels, o.Distance);
+      if (!o.Quiet)
+      {
+        std::cout << "distance picture: " << o.Distance << " (" << Seconds(SecondsSince(start))
+                  << ")" << std::endl;
+      }
+    }
+    return 0;
+  }
+  catch (const Error& e)
+  {
+    std::cerr << "precisemc: error: " << e.what() << std::endl;
+    return e.Status;
+  }
+  catch (const std::bad_alloc&)
+  {
+    std::cerr << "precisemc: error: out of memory" << std::endl;
+    return 1;
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << "precisemc: error: " << e.what() << std::endl;
+    return 1;
+  }
+}
