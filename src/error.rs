@@ -41,10 +41,11 @@ pub enum Error {
         /// Declared buffer length in elements.
         len: u64,
     },
-    /// Two samples map to the same element (a zero stride on an axis with
-    /// more than one sample is allowed only through [`crate::Volume::with_strides`]
-    /// all-zero shorthand, which means contiguous).
-    #[error("invalid strides {0:?}")]
+    /// A stride is zero (every axis has at least two samples, so a zero
+    /// stride would alias them; the all-zero shorthand of
+    /// [`crate::Volume::with_strides`] means contiguous and is resolved
+    /// before validation).
+    #[error("invalid strides {0:?}: a stride of 0 aliases samples")]
     InvalidStrides([i64; 3]),
     /// The isovalue is NaN or infinite.
     #[error("isovalue {0} is not finite")]

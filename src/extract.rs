@@ -23,7 +23,7 @@ use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::Options;
-use crate::refine::{shared_fixed_axes, Counters, Refiner, Tri};
+use crate::refine::{shared_fixed_axes, Counters, EdgeCache, Refinable, Refiner, Tri};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Samples, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
@@ -144,6 +144,31 @@ struct SlabOut {
     total_time: Duration,
 }
 
+/// Forwards progress to the caller's callback: never decreasing, and never
+/// again once the callback asked to stop.
+struct Reporter<'p> {
+    f: &'p mut dyn FnMut(f64) -> ControlFlow<()>,
+    last: f64,
+    stopped: bool,
+}
+
+impl Reporter<'_> {
+    /// Reports `x`; returns false when the caller asked to stop.
+    fn report(&mut self, x: f64) -> bool {
+        if self.stopped {
+            return false;
+        }
+        self.last = self.last.max(x.clamp(0.0, 1.0));
+        if (self.f)(self.last).is_break() {
+            self.stopped = true;
+        }
+        !self.stopped
+    }
+}
+
+/// Most worker threads one extraction starts (more requested are clamped).
+pub const MAX_THREADS: usize = 4096;
+
 fn run<T: Scalar>(
     grid: Grid<'_, T>,
     volume: &Volume<'_>,
@@ -151,20 +176,41 @@ fn run<T: Scalar>(
     options: &Options,
     progress: &mut dyn FnMut(f64) -> ControlFlow<()>,
 ) -> Result<Mesh, Error> {
-    let start = Instant::now();
-    if progress(0.0).is_break() {
+    let mut reporter = Reporter {
+        f: progress,
+        last: 0.0,
+        stopped: false,
+    };
+    if !reporter.report(0.0) {
         return Err(Error::Aborted);
     }
-    let filter = Trilinear::new(grid);
     let threads = if options.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())
     } else {
-        options.threads
+        options.threads.min(MAX_THREADS)
     };
-    let pool = rayon::ThreadPoolBuilder::new()
+    // A scoped pool: its threads are joined before the call returns, so no
+    // thread outlives it (a host may unload the library right after).
+    rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
-        .build()
-        .map_err(|e| Error::ThreadPool(e.to_string()))?;
+        .build_scoped(
+            |thread| thread.run(),
+            |pool| run_in_pool(pool, threads, grid, volume, iso, options, &mut reporter),
+        )
+        .map_err(|e| Error::ThreadPool(e.to_string()))?
+}
+
+fn run_in_pool<T: Scalar>(
+    pool: &rayon::ThreadPool,
+    threads: usize,
+    grid: Grid<'_, T>,
+    volume: &Volume<'_>,
+    iso: f64,
+    options: &Options,
+    reporter: &mut Reporter<'_>,
+) -> Result<Mesh, Error> {
+    let start = Instant::now();
+    let filter = Trilinear::new(grid);
     let cell_dims = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
     let nz = cell_dims[2];
     // Slabs: several per thread for balance; the result does not depend on it.
@@ -213,7 +259,6 @@ fn run<T: Scalar>(
             let outs = std::thread::scope(|scope| {
                 let shared = &shared;
                 let slabs = &slabs;
-                let pool = &pool;
                 scope.spawn(move || {
                     let r: Vec<SlabOut> = pool.install(|| {
                         slabs
@@ -228,7 +273,7 @@ fn run<T: Scalar>(
                         Ok(r) => break r,
                         Err(_) => {
                             let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
-                            if progress(weight.0 + weight.1 * done.min(1.0)).is_break() {
+                            if !reporter.report(weight.0 + weight.1 * done.min(1.0)) {
                                 cancel.store(true, Ordering::Relaxed);
                             }
                         }
@@ -272,17 +317,17 @@ fn run<T: Scalar>(
     let t_asm = Instant::now();
     let mut mesh = assemble(outs, volume, &mut stats)?;
     stats.time_assemble = t_asm.elapsed().as_secs_f64();
-    if progress(0.97).is_break() {
+    if !reporter.report(0.97) {
         return Err(Error::Aborted);
     }
     let t_n = Instant::now();
-    mesh.normals = compute_normals(&filter, volume, &mesh.index_points, options.normals, &pool);
+    mesh.normals = compute_normals(&filter, volume, &mesh.index_points, options.normals, pool);
     stats.time_normals = t_n.elapsed().as_secs_f64();
     stats.time_total = start.elapsed().as_secs_f64();
     stats.output_triangles = mesh.triangles.len() as u64;
     stats.output_points = mesh.points.len() as u64;
     mesh.stats = stats;
-    if progress(1.0).is_break() {
+    if !reporter.report(1.0) {
         return Err(Error::Aborted);
     }
     Ok(mesh)
@@ -299,6 +344,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     let mut map: KeyMap<u32> = KeyMap::default();
     let mut patch = Patch::default();
     let mut stack: Vec<Tri> = Vec::with_capacity(64);
+    let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
@@ -321,17 +367,8 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
             if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
                 break 'layers;
             }
-            if !count_only {
-                let n = out.tris.len() as u64;
-                if n > reported {
-                    let total =
-                        sh.emitted.fetch_add(n - reported, Ordering::Relaxed) + (n - reported);
-                    reported = n;
-                    if total > cap {
-                        sh.over_cap.store(true, Ordering::Relaxed);
-                        break 'layers;
-                    }
-                }
+            if !count_only && report_emitted(sh, &out, &mut reported, cap) {
+                break 'layers;
             }
             if j == 0 {
                 fin[0] = sh.grid.row_into(0, k, 0.0, &mut rows[0]);
@@ -489,6 +526,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         }
                     }
                 }
+                cache.clear();
                 let Some(fc) = sh.filter.load([i, j, k]) else {
                     out.nonfinite += 1;
                     continue;
@@ -501,6 +539,8 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     rule: opts.rule,
                     counters: &mut out.counters,
                     stack: &mut stack,
+                    cache: &mut cache,
+                    refinable: Refinable::of_cell(&f),
                 };
                 for (n, t) in kept.iter().enumerate() {
                     let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
@@ -521,7 +561,13 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         near: 0,
                     };
                     if count_only {
-                        refiner.run(root, false, &mut |_| {}, &mut |_| 0);
+                        // Distinct ids for new points (the edge cache is
+                        // keyed by ids; 0..16 are the cell's own points).
+                        let mut next_id = 16u32;
+                        refiner.run(root, false, &mut |_| {}, &mut |_| {
+                            next_id += 1;
+                            next_id
+                        });
                     } else {
                         let verts = &mut out.verts;
                         let tris = &mut out.tris;
@@ -549,8 +595,32 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
         }
         sh.layers_done.fetch_add(1, Ordering::Relaxed);
     }
+    // The last rows' triangles count towards the cap too.
+    if !count_only {
+        report_emitted(sh, &out, &mut reported, cap);
+    }
     out.total_time = t0.elapsed();
     out
+}
+
+/// Adds the slab's triangles emitted since the last call to the shared
+/// count; returns true (and raises `over_cap`) when the total exceeds `cap`.
+fn report_emitted<T: Scalar, F: ReconstructionFilter>(
+    sh: &Shared<'_, T, F>,
+    out: &SlabOut,
+    reported: &mut u64,
+    cap: u64,
+) -> bool {
+    let n = out.tris.len() as u64;
+    if n > *reported {
+        let total = sh.emitted.fetch_add(n - *reported, Ordering::Relaxed) + (n - *reported);
+        *reported = n;
+        if total > cap {
+            sh.over_cap.store(true, Ordering::Relaxed);
+            return true;
+        }
+    }
+    false
 }
 
 /// Welds the slabs' vertices (only points on a slab's bottom plane can
@@ -654,16 +724,18 @@ fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
 
 /// Samples equal to the isovalue can make two cells emit the same
 /// triangle, flat in a shared face: a pair of opposite orientation bounds
-/// nothing and is removed, a repeated one is kept once. Only triangles whose
-/// three points are grid points can coincide, so only those are checked.
+/// nothing and is removed, a repeated one is kept once. Triangles of two
+/// cells can coincide only in the grid plane between them, so only
+/// triangles lying in a grid plane are checked.
 fn remove_duplicate_triangles(mesh: &mut Mesh) {
-    let on_grid = |id: u64, pts: &Vec<[f64; 3]>| {
-        let p = pts[id as usize];
-        p.iter().all(|c| c.fract() == 0.0)
+    let pts = &mesh.index_points;
+    let in_grid_plane = |t: &[u64; 3]| {
+        let p = t.map(|v| pts[v as usize]);
+        (0..3).any(|a| p[0][a].fract() == 0.0 && p[1][a] == p[0][a] && p[2][a] == p[0][a])
     };
     let mut cand: Vec<(usize, [u64; 3], bool)> = Vec::new();
     for (n, t) in mesh.triangles.iter().enumerate() {
-        if t.iter().all(|&v| on_grid(v, &mesh.index_points)) {
+        if in_grid_plane(t) {
             let mut s = *t;
             // Rotate so the smallest id is first; the parity tells orientation.
             let r = (0..3).min_by_key(|&k| s[k]).unwrap();

@@ -26,6 +26,12 @@ pub trait ReconstructionFilter: Sync {
 
     /// Gradient with respect to local (index-space) coordinates.
     fn gradient(cell: &Self::Cell, p: DVec3) -> DVec3;
+
+    /// Value and gradient together (filters override it to share work).
+    #[inline]
+    fn value_gradient(cell: &Self::Cell, p: DVec3) -> (f64, DVec3) {
+        (Self::value(cell, p), Self::gradient(cell, p))
+    }
 }
 
 #[inline(always)]
@@ -71,6 +77,25 @@ pub fn trilinear_gradient(c: &[f64; 8], p: DVec3) -> DVec3 {
     let gy = lerp(r10 - r00, r11 - r01, p.z);
     let gz = s1 - s0;
     DVec3::new(gx, gy, gz)
+}
+
+/// Value and gradient of the trilinear interpolant, sharing the work; the
+/// same bits as [`trilinear_value`] and [`trilinear_gradient`].
+#[inline]
+pub fn trilinear_value_gradient(c: &[f64; 8], p: DVec3) -> (f64, DVec3) {
+    let r00 = lerp(c[0], c[1], p.x);
+    let r10 = lerp(c[3], c[2], p.x);
+    let r01 = lerp(c[4], c[5], p.x);
+    let r11 = lerp(c[7], c[6], p.x);
+    let s0 = lerp(r00, r10, p.y);
+    let s1 = lerp(r01, r11, p.y);
+    let gx = lerp(
+        lerp(c[1] - c[0], c[2] - c[3], p.y),
+        lerp(c[5] - c[4], c[6] - c[7], p.y),
+        p.z,
+    );
+    let gy = lerp(r10 - r00, r11 - r01, p.z);
+    (lerp(s0, s1, p.z), DVec3::new(gx, gy, s1 - s0))
 }
 
 /// The trilinear filter of the paper: the interpolant of each cell's eight
@@ -120,6 +145,11 @@ impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
     #[inline]
     fn gradient(cell: &[f64; 8], p: DVec3) -> DVec3 {
         trilinear_gradient(cell, p)
+    }
+
+    #[inline]
+    fn value_gradient(cell: &[f64; 8], p: DVec3) -> (f64, DVec3) {
+        trilinear_value_gradient(cell, p)
     }
 }
 

@@ -54,7 +54,7 @@ mod normals;
 mod refine;
 
 pub use error::Error;
-pub use extract::{extract, extract_with_progress};
+pub use extract::{extract, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};
 pub use options::{NormalMode, Options, Rule, Topology};
 pub use volume::{Samples, Scalar, ScalarType, Volume};

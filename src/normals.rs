@@ -24,6 +24,12 @@ fn locate(p: DVec3, dims: [usize; 3], off: [i64; 3]) -> ([usize; 3], DVec3) {
 fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
     // Index-space gradient to world space, negated: towards lower values.
     let w = DVec3::new(-g.x / spacing[0], -g.y / spacing[1], -g.z / spacing[2]);
+    // Scale first so huge gradients do not overflow the length.
+    let m = w.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return [0.0, 0.0, 0.0];
+    }
+    let w = w / m;
     let len = w.length();
     if len > 0.0 && len.is_finite() {
         let n = w / len;

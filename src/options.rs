@@ -66,8 +66,8 @@ pub struct Options {
     /// Cap on output triangles; 0 = no cap of the caller's (the internal
     /// safety cap [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
     pub max_triangles: u64,
-    /// Worker threads; 0 = all cores. Default 0. The output does not depend
-    /// on it.
+    /// Worker threads; 0 = all cores. Default 0. Values above
+    /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
     pub threads: usize,
 }
 

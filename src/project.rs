@@ -209,16 +209,16 @@ pub fn test<F: ReconstructionFilter>(
         }
         g
     };
-    let g = mask(F::gradient(cell, p));
+    let (v0, g0) = F::value_gradient(cell, p);
+    let g = mask(g0);
     let len = g.length();
     if len > 0.0 && len.is_finite() {
-        let q0 = F::value(cell, p) - iso;
+        let q0 = v0 - iso;
         if q0 == 0.0 {
             return Test::Near;
         }
         let d = g / len;
         if let Some((lo, hi)) = clip_to_cell(p, d) {
-            let q = |t: f64| F::value(cell, p + d * t) - iso;
             let tol = 1e-13 * q0.abs();
             // Newton walk along the line until it brackets a root.
             let (mut t, mut qt, mut slope) = (0.0, q0, len);
@@ -230,23 +230,24 @@ pub fn test<F: ReconstructionFilter>(
                 if !(tn >= lo && tn <= hi) {
                     break;
                 }
-                let qn = q(tn);
-                let (root, near_end, far_end) = if qn.abs() <= tol {
-                    (Some(tn), tn.abs(), tn.abs())
-                } else if (qn < 0.0) != (q0 < 0.0) {
-                    (None, t.abs().min(tn.abs()), t.abs().max(tn.abs()))
-                } else {
+                let (vn, gn) = F::value_gradient(cell, p + d * tn);
+                let qn = vn - iso;
+                if qn.abs() > tol && (qn < 0.0) == (q0 < 0.0) {
                     t = tn;
                     qt = qn;
-                    slope = mask(F::gradient(cell, p + d * tn)).dot(d);
+                    slope = mask(gn).dot(d);
                     continue;
-                };
+                }
                 // A root lies between t and tn (both on one side of 0).
-                if far_end <= epsilon {
+                if t.abs().max(tn.abs()) <= epsilon {
                     return Test::Near;
                 }
-                let r = root.unwrap_or_else(|| solve(&q, t, qt, tn, qn));
-                let _ = near_end;
+                let r = if qn.abs() <= tol {
+                    tn
+                } else {
+                    let q = |s: f64| F::value(cell, p + d * s) - iso;
+                    solve(&q, t, qt, tn, qn)
+                };
                 return if r.abs() > epsilon {
                     Test::Far(p + d * r)
                 } else {

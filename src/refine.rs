@@ -25,9 +25,74 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     pub max_level: u32,
     pub rule: Rule,
     pub counters: &'c mut Counters,
-    /// When set, only count triangles per level (no output).
+    /// Work stack, reused between calls.
     pub stack: &'c mut Vec<Tri>,
+    /// Decisions of the cell's edges so far, keyed by vertex ids: an edge
+    /// shared by two triangles of the cell is tested once (the decision is
+    /// a pure function of the edge, so this changes nothing but time).
+    pub cache: &'c mut EdgeCache,
+    /// Which cell faces and whether the interior may be refined (see
+    /// [`Refinable`]).
+    pub refinable: Refinable,
 }
+
+/// Where a cell may be refined. A sample exactly at the isovalue (or a face
+/// saddle exactly at it) makes `S_K` touch itself or contain whole grid
+/// segments there; split points projected near such a place from two sides
+/// land on the same spot and weld into non-manifold or degenerate
+/// triangles. So refinement stays away from them: an edge lying in a cell
+/// face splits only when that face is free of ties (decided from the
+/// face's four samples alone, so both cells sharing it agree: no crack),
+/// and interior edges and centres only when all eight corners and all six
+/// faces are. Such cells keep (part of) their Marching Cubes triangles.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Refinable {
+    /// Bit `2 * axis + side` set: the face `axis = side` is free of ties.
+    pub faces: u8,
+    /// The whole cell is free of ties.
+    pub interior: bool,
+}
+
+impl Refinable {
+    /// From the corner values minus the isovalue (VTK corner order).
+    pub fn of_cell(f: &[f64; 8]) -> Self {
+        use crate::tables::cube::FACES;
+        let mut faces = 0u8;
+        for (axis, side, c) in FACES {
+            let g = c.map(|k| f[k as usize]);
+            // A sample at the isovalue, or an ambiguous face whose diagonal
+            // products agree (its saddle is at the isovalue).
+            let s = g.map(|v| v > 0.0);
+            let ambiguous = s[0] == s[2] && s[1] == s[3] && s[0] != s[1];
+            let tie = g.contains(&0.0) || (ambiguous && g[0] * g[2] == g[1] * g[3]);
+            if !tie {
+                faces |= 1 << (2 * axis + side);
+            }
+        }
+        Refinable {
+            faces,
+            interior: faces == 0b11_1111,
+        }
+    }
+
+    /// Whether an edge with fixed-axis mask `fixed` through `mid` (local
+    /// coordinates) may split.
+    fn edge(&self, fixed: u8, mid: DVec3) -> bool {
+        if fixed == 0 {
+            return self.interior;
+        }
+        (0..3).all(|k| {
+            fixed & (1 << k) == 0 || self.faces & (1 << (2 * k + (mid[k] == 1.0) as usize)) != 0
+        })
+    }
+}
+
+/// Split decisions per edge of one cell.
+pub(crate) type EdgeCache = std::collections::HashMap<
+    u64,
+    Option<DVec3>,
+    std::hash::BuildHasherDefault<crate::extract::KeyHasher>,
+>;
 
 /// Refinement statistics, summed over cells.
 #[derive(Debug, Clone, Default)]
@@ -128,13 +193,23 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let mut midpoint = [DVec3::ZERO; 3];
             for e in 0..3 {
                 midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-                if t.near & (1 << e) == 0 {
-                    mids[e] = self.test(midpoint[e], t.fixed[e]);
+                if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
+                    let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
+                    let k = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                    mids[e] = match self.cache.get(&k) {
+                        Some(r) => *r,
+                        None => {
+                            let r = self.test(midpoint[e], t.fixed[e]);
+                            self.cache.insert(k, r);
+                            r
+                        }
+                    };
                 }
             }
             let nsplit = mids.iter().filter(|m| m.is_some()).count();
             let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
             let centre = match self.rule {
+                _ if !self.refinable.interior => None,
                 Rule::A => None,
                 Rule::A1 => {
                     if nsplit == 0 {

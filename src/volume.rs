@@ -225,6 +225,10 @@ impl<'a> Volume<'a> {
                 return Err(Error::DimensionOverflow(self.dims));
             }
         }
+        // A zero stride would read one sample for a whole axis.
+        if self.strides.contains(&0) {
+            return Err(Error::InvalidStrides(self.strides));
+        }
         let total = (self.dims[0] as u128) * (self.dims[1] as u128) * (self.dims[2] as u128);
         if total > (isize::MAX as u128) {
             return Err(Error::DimensionOverflow(self.dims));

@@ -390,65 +390,161 @@ fn disk(f: &[f64; 8], l: &[u8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]
     }
 }
 
-/// The centroid of a loop's crossings, moved onto the surface along the
-/// gradient line inside the cell when a root is found there.
+/// The centroid of a loop's crossings, moved onto the surface: along the
+/// gradient line inside the cell when that finds a root, else to the
+/// nearest root on the segments from the centroid to the corners of the
+/// other sign (one always exists: the loop separates inside corners from
+/// outside ones), so the point is always on `S_K`.
 fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
-    let mut c = [0.0; 3];
+    use crate::filter::{trilinear_value, Trilinear};
+    use glam::DVec3;
+    let mut c = DVec3::ZERO;
     for &e in l {
-        let p = crossing(f, e);
-        for a in 0..3 {
-            c[a] += p[a] / l.len() as f64;
+        c += DVec3::from_array(crossing(f, e)) / l.len() as f64;
+    }
+    if let Some(pr) = crate::project::project::<Trilinear<'static, f64>>(f, 0.0, c, 0) {
+        return pr.point.to_array();
+    }
+    let fc = trilinear_value(f, c);
+    let mut best: Option<(f64, DVec3)> = None;
+    for (k, corner) in CORNERS.iter().enumerate() {
+        if (f[k] >= 0.0) == (fc >= 0.0) {
+            continue;
+        }
+        let q = DVec3::new(corner[0] as f64, corner[1] as f64, corner[2] as f64);
+        // Bisection on the segment c -> corner: F changes sign along it.
+        let (mut a, mut b) = (0.0f64, 1.0f64);
+        for _ in 0..100 {
+            let m = 0.5 * (a + b);
+            let fm = trilinear_value(f, c + (q - c) * m);
+            if fm == 0.0 {
+                a = m;
+                b = m;
+                break;
+            }
+            if (fm >= 0.0) == (fc >= 0.0) {
+                a = m;
+            } else {
+                b = m;
+            }
+        }
+        let p = c + (q - c) * (0.5 * (a + b));
+        let d = (p - c).length();
+        if best.map_or(true, |(bd, _)| d < bd) {
+            best = Some((d, p));
         }
     }
-    let p = glam::DVec3::from_array(c);
-    match crate::project::project::<crate::filter::Trilinear<'static, f64>>(f, 0.0, p, 0) {
-        Some(pr) => pr.point.to_array(),
-        None => c,
-    }
+    best.map_or(c, |(_, p)| p).to_array()
 }
 
-/// A tube between two loops: walk `a` forwards and `b` backwards, always
-/// taking the shorter new diagonal.
+/// A tube between two loops: the cheapest closed strip of triangles that
+/// walks `a` forwards and `b` backwards.
+///
+/// Every start diagonal is tried, with a dynamic programme over the strip
+/// (at most 12 x 12 states: only ambiguous cells get here). A strip starts
+/// by advancing on `a`, ends by advancing on `b` and does not finish `a`
+/// before leaving the start vertex of `b`, so no diagonal is used twice (a
+/// repeated diagonal would be an edge in four triangles). Costs,
+/// in order of weight: a triangle lying flat in a cell face (it would
+/// overlap the neighbour's patch boundary), a diagonal lying in a face,
+/// then the diagonal's length.
 fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
     let pa: Vec<[f64; 3]> = a.iter().map(|&e| crossing(f, e)).collect();
     let pb: Vec<[f64; 3]> = b.iter().map(|&e| crossing(f, e)).collect();
     let (m, n) = (a.len(), b.len());
-    // Start at the closest pair.
-    let mut best = (f64::INFINITY, 0usize);
-    for (j, q) in pb.iter().enumerate() {
-        let d = dist2(pa[0], *q);
-        if d < best.0 {
-            best = (d, j);
+    const FLAT: f64 = 1e6;
+    const IN_FACE: f64 = 1e3;
+    let flat = |x: u8, y: u8, z: u8| {
+        FACE_EDGES
+            .iter()
+            .any(|fe| fe.contains(&x) && fe.contains(&y) && fe.contains(&z))
+    };
+    // Cost of the triangle closing at diagonal (ia, jb) after advancing.
+    let tri_cost = |x: u8, y: u8, z: u8, da: usize, db: usize| {
+        let mut c = dist2(pa[da], pb[db]).sqrt();
+        if share_face(a[da], b[db]) {
+            c += IN_FACE;
+        }
+        if flat(x, y, z) {
+            c += FLAT;
+        }
+        c
+    };
+    let mut best: Option<(f64, usize, usize, Vec<bool>)> = None;
+    let w = n + 1;
+    let mut cost = vec![f64::INFINITY; (m + 1) * w];
+    let mut from_a = vec![false; (m + 1) * w];
+    for i0 in 0..m {
+        for j0 in 0..n {
+            let ai = |i: usize| (i0 + i) % m;
+            let bj = |j: usize| (j0 + n - j % n) % n;
+            cost.iter_mut().for_each(|c| *c = f64::INFINITY);
+            // First step is forced along a: state (1, 0).
+            cost[w] = tri_cost(a[ai(0)], a[ai(1)], b[bj(0)], ai(1), bj(0));
+            from_a[w] = true;
+            for i in 1..=m {
+                for j in 0..=n {
+                    // (m, 0) would be the start diagonal again.
+                    if j == 0 && (i == 1 || i == m) {
+                        continue;
+                    }
+                    let mut c = f64::INFINITY;
+                    let mut fa = false;
+                    // Advance a: from (i - 1, j); never at j = n (the last
+                    // step is along b).
+                    if i >= 2 && j < n {
+                        let prev = cost[(i - 1) * w + j];
+                        let t = tri_cost(a[ai(i - 1)], a[ai(i)], b[bj(j)], ai(i), bj(j));
+                        if prev + t < c {
+                            c = prev + t;
+                            fa = true;
+                        }
+                    }
+                    // Advance b: from (i, j - 1).
+                    if j >= 1 {
+                        let prev = cost[i * w + j - 1];
+                        let t = tri_cost(b[bj(j - 1)], a[ai(i)], b[bj(j)], ai(i), bj(j));
+                        if prev + t < c {
+                            c = prev + t;
+                            fa = false;
+                        }
+                    }
+                    cost[i * w + j] = c;
+                    from_a[i * w + j] = fa;
+                }
+            }
+            let total = cost[m * w + n];
+            if best.as_ref().map_or(true, |b| total < b.0) {
+                // Trace the steps back from (m, n).
+                let mut steps = Vec::with_capacity(m + n);
+                let (mut i, mut j) = (m, n);
+                while i > 0 || j > 0 {
+                    let fa = from_a[i * w + j];
+                    steps.push(fa);
+                    if fa {
+                        i -= 1;
+                    } else {
+                        j -= 1;
+                    }
+                }
+                steps.reverse();
+                best = Some((total, i0, j0, steps));
+            }
         }
     }
-    let (mut i, mut j) = (0usize, best.1);
-    let (mut da, mut db) = (0usize, 0usize);
-    while da < m || db < n {
-        let i1 = (i + 1) % m;
-        let j1 = (j + n - 1) % n;
-        let advance_a = if da == m {
-            false
-        } else if db == n {
-            true
-        } else {
-            // Prefer a diagonal through the interior over one flat in a
-            // face, then the shorter one.
-            let fa = share_face(a[i1], b[j]);
-            let fb = share_face(a[i], b[j1]);
-            if fa != fb {
-                fb
-            } else {
-                dist2(pa[i1], pb[j]) <= dist2(pa[i], pb[j1])
-            }
-        };
+    let Some((_, i0, j0, steps)) = best else {
+        return;
+    };
+    let (mut i, mut j) = (i0, j0);
+    for advance_a in steps {
         if advance_a {
+            let i1 = (i + 1) % m;
             out.push([a[i], a[i1], b[j]]);
             i = i1;
-            da += 1;
         } else {
+            let j1 = (j + n - 1) % n;
             out.push([b[j], a[i], b[j1]]);
             j = j1;
-            db += 1;
         }
     }
 }

@@ -1,0 +1,282 @@
+//! Test 4: accuracy.
+//!
+//! * Every output vertex lies on S_K: |F(p) - iso| <= 1e-9 * (value range),
+//!   with F the piecewise trilinear interpolant evaluated independently at
+//!   `index_points` (cell = floor(p) clamped to the volume).
+//! * Refinement stopped for a reason: every triangle whose level is below
+//!   the effective maximum level has its rule's sample points (the three
+//!   edge midpoints; for A1, A2 and B also the centroid, which is what A2's
+//!   candidate is when no edge splits) within epsilon of S_K, measured
+//!   with `precisemc::project::project` in the triangle's cell (an edge on
+//!   the cell patch's boundary is projected within its face, as the
+//!   library does; a sample for which the projection finds no root is not
+//!   split by design and is not checked).
+//! * The distance of the mesh to S_K shrinks as epsilon shrinks, measured
+//!   by the first-order distance |F - iso| / |grad F| at the midpoints and
+//!   centroids of all output triangles (independent of `project`).
+
+mod common;
+
+use std::collections::HashMap;
+
+use common::*;
+use glam::DVec3;
+use precisemc::filter::Trilinear;
+use precisemc::project::project;
+use precisemc::{extract, Mesh, Options, Rule, Volume};
+
+type Filter = Trilinear<'static, f64>;
+
+fn fields() -> Vec<(&'static str, [usize; 3], Vec<f64>)> {
+    vec![
+        (
+            "sphere",
+            [12, 12, 12],
+            sphere([12, 12, 12], [5.55, 5.45, 5.52], 4.2),
+        ),
+        ("blobs", [12, 12, 12], blobs([12, 12, 12], 7, 7)),
+        (
+            "random",
+            [7, 7, 7],
+            random_interior([7, 7, 7], 11, -1.0, 1.0, -1.0),
+        ),
+    ]
+}
+
+fn vertex_errors(
+    mesh: &Mesh,
+    values: &[f64],
+    dims: [usize; 3],
+    off: [i64; 3],
+    iso: f64,
+) -> Vec<String> {
+    let range = values.iter().fold(0.0f64, |m, v| m.max((v - iso).abs()));
+    let mut out = Vec::new();
+    for p in &mesh.index_points {
+        let local = [
+            p[0] - off[0] as f64,
+            p[1] - off[1] as f64,
+            p[2] - off[2] as f64,
+        ];
+        let v = volume_value(values, dims, local);
+        if (v - iso).abs() > 1e-9 * range {
+            out.push(format!("vertex {p:?}: F - iso = {}", v - iso));
+        }
+    }
+    out
+}
+
+#[test]
+fn every_vertex_is_on_the_trilinear_surface() {
+    let mut failures = Vec::new();
+    for (name, dims, values) in fields() {
+        // A non-trivial placement: index offset, origin, anisotropic spacing.
+        let off = [3, -2, 7];
+        let vol = Volume::new(&values, dims_u64(dims))
+            .with_index_offset(off)
+            .with_origin([0.5, -1.0, 2.0])
+            .with_spacing([0.7, 1.3, 0.9]);
+        for topology in TOPOLOGIES {
+            let mut cfgs: Vec<(String, Options)> = vec![("MC".into(), mc_opts(topology))];
+            for rule in RULES {
+                cfgs.push((format!("{rule:?}"), refine_opts(topology, rule, 0.005, 4)));
+            }
+            for (cfg, opts) in cfgs {
+                let mesh = extract(&vol, 0.0, &opts).unwrap();
+                // World points follow from index points.
+                for (w, p) in mesh.points.iter().zip(&mesh.index_points) {
+                    let want = [0.5 + 0.7 * p[0], -1.0 + 1.3 * p[1], 2.0 + 0.9 * p[2]];
+                    assert!(
+                        dist(*w, want) <= 1e-12 * (1.0 + norm(want)),
+                        "{w:?} vs {want:?}"
+                    );
+                }
+                let errs = vertex_errors(&mesh, &values, dims, off, 0.0);
+                if !errs.is_empty() {
+                    failures.push(format!(
+                        "{name} {topology:?} {cfg}: {} vertices off S_K, e.g. {}",
+                        errs.len(),
+                        errs[0]
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Checks the "stopped for a reason" property; returns failures and the
+/// number of sample points checked.
+fn check_unsplit(
+    mesh: &Mesh,
+    values: &[f64],
+    dims: [usize; 3],
+    rule: Rule,
+    eps: f64,
+) -> (Vec<String>, usize) {
+    let pts = &mesh.index_points;
+    let maxl = mesh.stats.effective_max_level;
+    // Group triangles by cell.
+    let mut by_cell: HashMap<[usize; 3], Vec<usize>> = HashMap::new();
+    for (n, t) in mesh.triangles.iter().enumerate() {
+        let c = centroid(pts, *t);
+        if c.iter().any(|x| x.fract() == 0.0) {
+            continue; // flat in a cell face: the cell is ambiguous
+        }
+        by_cell.entry(locate(dims, c).0).or_default().push(n);
+    }
+    let mut failures = Vec::new();
+    let mut checked = 0;
+    for (cell, tris) in &by_cell {
+        let corners = corners_of(values, dims, *cell);
+        let cf = [cell[0] as f64, cell[1] as f64, cell[2] as f64];
+        let mut uses: HashMap<(u64, u64), u32> = HashMap::new();
+        for &n in tris {
+            let t = mesh.triangles[n];
+            for e in 0..3 {
+                let (a, b) = (t[e], t[(e + 1) % 3]);
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+            }
+        }
+        for &n in tris {
+            if mesh.levels[n] as u32 >= maxl {
+                continue;
+            }
+            let t = mesh.triangles[n];
+            let local = t.map(|v| {
+                let p = pts[v as usize];
+                DVec3::new(p[0] - cf[0], p[1] - cf[1], p[2] - cf[2])
+            });
+            let mut samples: Vec<(DVec3, u8)> = Vec::new();
+            for e in 0..3 {
+                let (a, b) = (t[e], t[(e + 1) % 3]);
+                let (pa, pb) = (local[e], local[(e + 1) % 3]);
+                let mut fixed = 0u8;
+                if uses[&(a.min(b), a.max(b))] == 1 {
+                    for k in 0..3 {
+                        if pa[k] == pb[k] && (pa[k] == 0.0 || pa[k] == 1.0) {
+                            fixed |= 1 << k;
+                        }
+                    }
+                }
+                samples.push(((pa + pb) * 0.5, fixed));
+            }
+            if rule != Rule::A {
+                samples.push(((local[0] + local[1] + local[2]) / 3.0, 0));
+            }
+            for (s, fixed) in samples {
+                checked += 1;
+                if let Some(pr) = project::<Filter>(&corners, 0.0, s, fixed) {
+                    if pr.distance > eps * (1.0 + 1e-9) + 1e-12 {
+                        failures.push(format!(
+                            "cell {cell:?} level {} sample {s:?} (fixed {fixed}) is {} from S_K",
+                            mesh.levels[n], pr.distance
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    (failures, checked)
+}
+
+#[test]
+fn unsplit_triangles_are_within_epsilon() {
+    let mut failures = Vec::new();
+    let mut total = 0;
+    for (name, dims, values) in fields() {
+        let vol = Volume::new(&values, dims_u64(dims));
+        for topology in TOPOLOGIES {
+            for rule in RULES {
+                for (eps, maxl) in [(0.02, 3), (0.004, 4)] {
+                    let mesh = extract(&vol, 0.0, &refine_opts(topology, rule, eps, maxl)).unwrap();
+                    assert_eq!(mesh.stats.effective_max_level, maxl);
+                    assert!(mesh.levels.iter().all(|&l| l as u32 <= maxl));
+                    let (f, n) = check_unsplit(&mesh, &values, dims, rule, eps);
+                    total += n;
+                    if !f.is_empty() {
+                        failures.push(format!(
+                            "{name} {topology:?} {rule:?} eps {eps}: {} samples, e.g. {}",
+                            f.len(),
+                            f[0]
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(total > 10_000, "only {total} samples checked");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// First-order distance of the mesh's triangle midpoints and centroids to
+/// S_K: (max, mean).
+fn mesh_distance(mesh: &Mesh, values: &[f64], dims: [usize; 3]) -> (f64, f64) {
+    let pts = &mesh.index_points;
+    let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+    for t in &mesh.triangles {
+        let p = t.map(|v| pts[v as usize]);
+        let samples = [
+            scale(add(p[0], p[1]), 0.5),
+            scale(add(p[1], p[2]), 0.5),
+            scale(add(p[2], p[0]), 0.5),
+            centroid(pts, *t),
+        ];
+        for s in samples {
+            let (cell, local) = locate(dims, s);
+            let c = corners_of(values, dims, cell);
+            let g = tri_gradient(&c, local);
+            let d = tri_value(&c, local).abs() / norm(g);
+            max = max.max(d);
+            sum += d;
+            n += 1;
+        }
+    }
+    (max, sum / n as f64)
+}
+
+#[test]
+fn distance_to_the_surface_shrinks_with_epsilon() {
+    let dims = [12, 12, 12];
+    let values = sphere(dims, [5.55, 5.45, 5.52], 4.2);
+    let vol = Volume::new(&values, dims_u64(dims));
+    for topology in TOPOLOGIES {
+        for rule in RULES {
+            let mut prev: Option<(f64, f64, f64)> = None;
+            let mut mc_mean = 0.0;
+            for eps in [0.0, 0.05, 0.01, 0.002] {
+                let opts = if eps == 0.0 {
+                    mc_opts(topology)
+                } else {
+                    refine_opts(topology, rule, eps, 6)
+                };
+                let mesh = extract(&vol, 0.0, &opts).unwrap();
+                let (max, mean) = mesh_distance(&mesh, &values, dims);
+                if let Some((pe, pmax, pmean)) = prev {
+                    // Equal when no sample is above the larger epsilon.
+                    assert!(
+                        mean <= pmean,
+                        "{topology:?} {rule:?}: mean distance {mean} at eps {eps} not below {pmean} at eps {pe}"
+                    );
+                    assert!(max <= pmax * 1.05, "{topology:?} {rule:?}: max distance {max} at eps {eps} above {pmax} at {pe}");
+                }
+                if eps == 0.002 {
+                    // Every sample of an output triangle, tested or not, is
+                    // close to S_K.
+                    assert!(
+                        max < 0.01,
+                        "{topology:?} {rule:?}: max distance {max} at eps {eps}"
+                    );
+                    assert!(
+                        mean < 0.5 * mc_mean,
+                        "{topology:?} {rule:?}: mean {mean} vs Marching Cubes {mc_mean}"
+                    );
+                }
+                if eps == 0.0 {
+                    mc_mean = mean;
+                }
+                prev = Some((eps, max, mean));
+            }
+        }
+    }
+}

@@ -1,0 +1,269 @@
+//! Test 3: closed fields (the border is below the isovalue) give closed
+//! meshes, for both topologies, without refinement and with every rule.
+//!
+//! Generic fields (no sample equals the isovalue): every edge is in
+//! exactly two triangles, used once in each direction (consistent
+//! orientation), every vertex link is a single cycle (manifold), no
+//! triangle is degenerate (repeated index or zero area) or duplicated,
+//! every point is used, and the signed volume is positive (normals point
+//! to lower values, i.e. out of the enclosed inside set).
+//!
+//! Integer fields with an integer isovalue (many samples exactly at the
+//! isovalue; surfaces touch at such samples): the mesh is a closed,
+//! consistently oriented 2-cycle, i.e. for every edge the uses a->b equal
+//! the uses b->a (this allows an edge shared by four triangles where two
+//! sheets touch, and non-manifold vertices), nothing is degenerate or
+//! duplicated, and the signed volume is positive.
+
+mod common;
+
+use common::*;
+use precisemc::{extract, Options, Rule, Topology, Volume};
+
+fn configs() -> Vec<(String, Options)> {
+    let mut v = Vec::new();
+    for topology in TOPOLOGIES {
+        v.push((format!("{topology:?} MC"), mc_opts(topology)));
+        for rule in RULES {
+            v.push((
+                format!("{topology:?} {rule:?}"),
+                refine_opts(topology, rule, 0.01, 3),
+            ));
+        }
+    }
+    v
+}
+
+/// Name, dims, samples, expected (components, Euler characteristic).
+type Field = (&'static str, [usize; 3], Vec<f64>, Option<(usize, i64)>);
+
+fn closed_fields() -> Vec<Field> {
+    vec![
+        (
+            "sphere",
+            [12, 12, 12],
+            sphere([12, 12, 12], [5.55, 5.45, 5.52], 4.0),
+            Some((1, 2)),
+        ),
+        (
+            "torus",
+            [16, 16, 10],
+            torus([16, 16, 10], [7.53, 7.48, 4.51], 4.5, 1.8),
+            Some((1, 0)),
+        ),
+        ("blobs 1", [12, 12, 12], blobs([12, 12, 12], 1, 6), None),
+        ("blobs 2", [11, 13, 12], blobs([11, 13, 12], 2, 8), None),
+        (
+            "random",
+            [7, 7, 7],
+            random_interior([7, 7, 7], 5, -1.0, 1.0, -1.0),
+            None,
+        ),
+    ]
+}
+
+#[test]
+fn closed_fields_give_closed_oriented_manifolds() {
+    let mut failures = Vec::new();
+    for (name, dims, values, expect) in closed_fields() {
+        let vol = Volume::new(&values, dims_u64(dims));
+        for (cfg, opts) in configs() {
+            let mesh = extract(&vol, 0.0, &opts).unwrap();
+            assert_sane(&mesh);
+            let c = check_mesh(&mesh);
+            let vol_sign = signed_volume(&mesh.index_points, &mesh.triangles);
+            let mut bad = !c.is_closed_oriented_manifold()
+                || c.unreferenced != 0
+                || vol_sign <= 0.0
+                || c.triangles == 0;
+            if let Some((comps, euler)) = expect {
+                bad |= c.components != comps || c.euler != euler;
+            }
+            if c.euler % 2 != 0 {
+                bad = true;
+            }
+            if bad {
+                failures.push(format!("{name} / {cfg}: volume {vol_sign}, {c:?}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The enclosed volume of a sphere is close to the ball's, and refinement
+/// brings it closer (the trilinear surface of r - |x| is very near the
+/// sphere).
+#[test]
+fn sphere_volume_is_accurate() {
+    let dims = [14, 14, 14];
+    let r = 5.0;
+    let values = sphere(dims, [6.5, 6.5, 6.5], r);
+    let exact = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    let vol = Volume::new(&values, dims_u64(dims));
+    for topology in TOPOLOGIES {
+        let mc = extract(&vol, 0.0, &mc_opts(topology)).unwrap();
+        let refined = extract(&vol, 0.0, &refine_opts(topology, Rule::A1, 0.002, 5)).unwrap();
+        let e_mc = (signed_volume(&mc.index_points, &mc.triangles) - exact).abs() / exact;
+        let e_ref =
+            (signed_volume(&refined.index_points, &refined.triangles) - exact).abs() / exact;
+        assert!(e_mc < 0.05, "{topology:?} MC volume error {e_mc}");
+        assert!(
+            e_ref < e_mc,
+            "{topology:?} refinement does not improve the volume: {e_ref} vs {e_mc}"
+        );
+        // S_K itself lies inside the sphere (the trilinear interpolant of the
+        // convex |x| is above it), by about 2% of the volume here.
+        assert!(e_ref < 0.03, "{topology:?} refined volume error {e_ref}");
+    }
+}
+
+/// Integer-valued fields, integer isovalue: many samples equal the isovalue.
+fn integer_fields() -> Vec<(String, [usize; 3], Vec<i16>, f64)> {
+    let mut cases: Vec<(String, [usize; 3], Vec<i16>, f64)> = Vec::new();
+    for seed in 0..6u64 {
+        let dims = [7, 6, 7];
+        let mut rng = Rng::new(100 + seed);
+        let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])
+            .map(|_| rng.below(3) as i16)
+            .collect();
+        set_border(&mut v, dims, 0);
+        cases.push((format!("random {{0,1,2}} seed {seed}"), dims, v, 1.0));
+    }
+    {
+        // A quantised sphere: |x| rounded, iso on an integer level.
+        let dims = [13, 13, 13];
+        let v: Vec<i16> = grid_fn(dims, |x, y, z| {
+            let d = ((x - 6.0).powi(2) + (y - 6.0).powi(2) + (z - 6.0).powi(2)).sqrt();
+            (8.0 - 2.0 * d).round().max(-4.0)
+        })
+        .into_iter()
+        .map(|x| x as i16)
+        .collect();
+        cases.push(("quantised sphere".into(), dims, v, 0.0));
+    }
+    {
+        // Two boxes of value 1 touching along an edge and at a corner, iso 1.
+        let dims = [8, 8, 8];
+        let v: Vec<i16> = grid_fn(dims, |x, y, z| {
+            let a =
+                (1.0..=3.0).contains(&x) && (1.0..=3.0).contains(&y) && (1.0..=6.0).contains(&z);
+            let b =
+                (3.0..=6.0).contains(&x) && (3.0..=6.0).contains(&y) && (1.0..=6.0).contains(&z);
+            (a || b) as i32 as f64
+        })
+        .into_iter()
+        .map(|x| x as i16)
+        .collect();
+        cases.push(("touching boxes".into(), dims, v, 1.0));
+    }
+    cases
+}
+
+/// Watertight: a closed, consistently oriented 2-cycle (every edge used as
+/// often a->b as b->a, no boundary edge, no edge used twice in the same
+/// direction), with positive enclosed volume.
+#[test]
+fn integer_fields_with_samples_at_the_isovalue_are_watertight() {
+    let mut failures = Vec::new();
+    for (name, dims, values, iso) in &integer_fields() {
+        let vol = Volume::new(values, dims_u64(*dims));
+        for (cfg, opts) in configs() {
+            let mesh = extract(&vol, *iso, &opts).unwrap();
+            assert_sane(&mesh);
+            let c = check_mesh(&mesh);
+            let vs = signed_volume(&mesh.index_points, &mesh.triangles);
+            if c.unbalanced_edges != 0
+                || c.boundary_edges != 0
+                || c.misoriented_edges != 0
+                || (c.triangles > 0 && vs <= 0.0)
+            {
+                failures.push(format!("{name} / {cfg}: volume {vs}, {c:?}"));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+/// No degenerate (repeated index or zero area) and no duplicated triangle
+/// (same three points twice), even where sheets touch at samples.
+#[test]
+fn integer_fields_have_no_degenerate_or_duplicate_triangles() {
+    let mut failures = Vec::new();
+    for (name, dims, values, iso) in &integer_fields() {
+        let vol = Volume::new(values, dims_u64(*dims));
+        for (cfg, opts) in configs() {
+            let mesh = extract(&vol, *iso, &opts).unwrap();
+            assert_sane(&mesh);
+            let c = check_mesh(&mesh);
+            let vs = signed_volume(&mesh.index_points, &mesh.triangles);
+            if c.degenerate != 0 || c.duplicates != 0 {
+                failures.push(format!("{name} / {cfg}: volume {vs}, {c:?}"));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+/// A field whose isosurface passes exactly through many samples of a
+/// smooth (non-integer) field: the plane z = 3.0 exactly on a grid layer.
+#[test]
+fn plane_through_a_sample_layer() {
+    let dims = [6, 6, 8];
+    let values = grid_fn(dims, |x, y, z| {
+        if x == 0.0 || y == 0.0 || z == 0.0 || x == 5.0 || y == 5.0 || z == 7.0 {
+            -1.0
+        } else {
+            3.0 - z + 0.0 * (x + y)
+        }
+    });
+    let vol = Volume::new(&values, dims_u64(dims));
+    for (cfg, opts) in configs() {
+        let mesh = extract(&vol, 0.0, &opts).unwrap();
+        let c = check_mesh(&mesh);
+        assert!(
+            c.unbalanced_edges == 0
+                && c.boundary_edges == 0
+                && c.degenerate == 0
+                && c.duplicates == 0,
+            "{cfg}: {c:?}"
+        );
+        assert!(
+            signed_volume(&mesh.index_points, &mesh.triangles) > 0.0,
+            "{cfg}"
+        );
+    }
+}
+
+/// Minimal reproduction: two coincident triangles of opposite orientation,
+/// flat in the plane z = 2, one vertex at the edge crossing (1, 1.5, 2),
+/// survive in Classic mode (duplicate removal only considers triangles
+/// whose three points are grid points).
+#[test]
+fn coincident_opposite_triangles_are_removed() {
+    let v: Vec<i16> = vec![
+        0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 1, 0, 0, 0, 0, 1, 0, 1, 0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 2, 0,
+        0, 2, 1, 0, 0, 0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 1, 0,
+        0, 2, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+        0, 0, 0, 0, 0,
+    ];
+    let mesh = extract(
+        &Volume::new(&v, [5, 5, 5]),
+        1.0,
+        &mc_opts(Topology::Classic),
+    )
+    .unwrap();
+    let c = check_mesh(&mesh);
+    assert_eq!(c.unbalanced_edges, 0);
+    assert_eq!(c.duplicates, 0, "{c:?}");
+}

@@ -1,0 +1,171 @@
+//! Test 5: determinism.
+//!
+//! * Bit-identical meshes (points, index points, triangles, levels,
+//!   normals) for 1, 2 and 4 threads.
+//! * A volume cut into two pieces that share one layer of samples (same
+//!   buffer, `with_offset` + `with_index_offset`) gives bit-identical
+//!   vertices on the shared layer from both pieces, and the union of the
+//!   two pieces' triangles (as position triples with winding) is exactly
+//!   the full run's, refined and unrefined, for cuts along z and along x.
+
+mod common;
+
+use common::*;
+use precisemc::{extract, Mesh, NormalMode, Options, Rule, Volume};
+
+fn volumes() -> Vec<(&'static str, [usize; 3], Vec<f64>)> {
+    vec![
+        ("blobs", [14, 12, 16], blobs([14, 12, 16], 3, 9)),
+        (
+            "random",
+            [8, 7, 9],
+            random_interior([8, 7, 9], 4, -1.0, 1.0, -1.0),
+        ),
+        (
+            "torus",
+            [16, 16, 10],
+            torus([16, 16, 10], [7.53, 7.48, 4.51], 4.5, 1.8),
+        ),
+    ]
+}
+
+fn configs() -> Vec<(String, Options)> {
+    let mut v = Vec::new();
+    for topology in TOPOLOGIES {
+        v.push((format!("{topology:?} MC"), mc_opts(topology)));
+        for rule in [Rule::A1, Rule::B] {
+            v.push((
+                format!("{topology:?} {rule:?}"),
+                refine_opts(topology, rule, 0.005, 4),
+            ));
+        }
+    }
+    v
+}
+
+#[test]
+fn identical_for_any_thread_count() {
+    for (name, dims, values) in volumes() {
+        let vol = Volume::new(&values, dims_u64(dims)).with_spacing([0.5, 1.0, 2.0]);
+        for (cfg, opts) in configs() {
+            let modes: &[NormalMode] = if cfg.ends_with("A1") {
+                &[NormalMode::Gradient, NormalMode::CentralDifference]
+            } else {
+                &[NormalMode::None]
+            };
+            for &normals in modes {
+                let run = |threads: usize| {
+                    let o = Options {
+                        threads,
+                        normals,
+                        ..opts.clone()
+                    };
+                    extract(&vol, 0.0, &o).unwrap()
+                };
+                let one = run(1);
+                for t in [2, 4] {
+                    assert!(
+                        same_mesh(&one, &run(t)),
+                        "{name} {cfg} {normals:?}: {t} threads differ from 1"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// `Ok(false)` when the cut does not meet the surface.
+fn split_check(
+    values: &[f64],
+    dims: [usize; 3],
+    axis: usize,
+    cut: usize,
+    opts: &Options,
+) -> Result<bool, String> {
+    let full = extract(&Volume::new(values, dims_u64(dims)), 0.0, opts).unwrap();
+    let strides = [1usize, dims[0], dims[0] * dims[1]];
+    let mut lo_dims = dims;
+    lo_dims[axis] = cut + 1;
+    let mut hi_dims = dims;
+    hi_dims[axis] = dims[axis] - cut;
+    let s = [strides[0] as i64, strides[1] as i64, strides[2] as i64];
+    let lo = Volume::new(values, dims_u64(lo_dims)).with_strides(s);
+    let mut off = [0i64; 3];
+    off[axis] = cut as i64;
+    let hi = Volume::new(values, dims_u64(hi_dims))
+        .with_strides(s)
+        .with_offset((cut * strides[axis]) as u64)
+        .with_index_offset(off);
+    let a = extract(&lo, 0.0, opts).map_err(|e| e.to_string())?;
+    let b = extract(&hi, 0.0, opts).map_err(|e| e.to_string())?;
+    let layer = |m: &Mesh| -> Vec<[u64; 3]> {
+        let on: Vec<[f64; 3]> = m
+            .index_points
+            .iter()
+            .copied()
+            .filter(|p| p[axis] == cut as f64)
+            .collect();
+        canonical_points(&on)
+    };
+    let (la, lb) = (layer(&a), layer(&b));
+    if la != lb {
+        return Err(format!(
+            "shared layer: {} vs {} points, or different bits",
+            la.len(),
+            lb.len()
+        ));
+    }
+    if la.is_empty() {
+        return Ok(false);
+    }
+    let mut union = canonical_triangles(&a.index_points, &a.triangles);
+    union.extend(canonical_triangles(&b.index_points, &b.triangles));
+    union.sort_unstable();
+    if union != canonical_triangles(&full.index_points, &full.triangles) {
+        return Err(format!(
+            "union of pieces ({} + {} triangles) differs from the full run ({})",
+            a.triangles.len(),
+            b.triangles.len(),
+            full.triangles.len()
+        ));
+    }
+    if a.triangles.len() + b.triangles.len() != full.triangles.len() {
+        return Err("triangle counts differ".into());
+    }
+    Ok(true)
+}
+
+#[test]
+fn pieces_sharing_a_layer_match_the_full_volume() {
+    let mut failures = Vec::new();
+    let mut met = 0;
+    for (name, dims, values) in volumes() {
+        for (cfg, opts) in configs() {
+            for (axis, cut) in [
+                (2, dims[2] / 2 - 1),
+                (0, dims[0] / 2 - 1),
+                (1, dims[1] / 2 + 1),
+            ] {
+                match split_check(&values, dims, axis, cut, &opts) {
+                    Ok(true) => met += 1,
+                    Ok(false) => {}
+                    Err(e) => failures.push(format!("{name} {cfg} axis {axis} cut {cut}: {e}")),
+                }
+            }
+        }
+    }
+    assert!(met >= 40, "only {met} cuts met the surface");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Repeated runs are identical (no hidden state, no hash-order effects).
+#[test]
+fn repeated_runs_are_identical() {
+    let (_, dims, values) = &volumes()[0];
+    let vol = Volume::new(values, dims_u64(*dims));
+    let opts = refine_opts(precisemc::Topology::Trilinear, Rule::A2, 0.003, 5);
+    let a = extract(&vol, 0.0, &opts).unwrap();
+    for _ in 0..3 {
+        assert!(same_mesh(&a, &extract(&vol, 0.0, &opts).unwrap()));
+    }
+}

@@ -1,0 +1,232 @@
+//! Test 8: every invalid parameter gives the right `Error` variant (never a
+//! panic), and non-finite samples are skipped, counted, and never produce
+//! NaN vertices.
+
+mod common;
+
+use common::*;
+use precisemc::{extract, Error, Options, Topology, Volume, MAX_LEVEL_LIMIT};
+
+fn data() -> Vec<f64> {
+    sphere([5, 5, 5], [2.0, 2.0, 2.0], 1.5)
+}
+
+#[test]
+fn dimensions_below_two() {
+    let d = data();
+    for axis in 0..3 {
+        for value in [0u64, 1] {
+            let mut dims = [5u64, 5, 5];
+            dims[axis] = value;
+            let v = Volume::new(&d, dims);
+            assert_eq!(
+                extract(&v, 0.0, &Options::default()),
+                Err(Error::DimensionTooSmall { axis, value })
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_spacing_and_origin() {
+    let d = data();
+    for axis in 0..3 {
+        for value in [0.0, -1.0, f64::NAN, f64::INFINITY, -0.0] {
+            let mut s = [1.0; 3];
+            s[axis] = value;
+            let r = extract(
+                &Volume::new(&d, [5, 5, 5]).with_spacing(s),
+                0.0,
+                &Options::default(),
+            );
+            match r {
+                Err(Error::InvalidSpacing {
+                    axis: a,
+                    value: got,
+                }) => {
+                    assert_eq!(a, axis);
+                    assert!(got.to_bits() == value.to_bits() || (got.is_nan() && value.is_nan()));
+                }
+                other => panic!("spacing {value} on axis {axis}: {other:?}"),
+            }
+        }
+        for value in [f64::NAN, f64::NEG_INFINITY] {
+            let mut o = [0.0; 3];
+            o[axis] = value;
+            let r = extract(
+                &Volume::new(&d, [5, 5, 5]).with_origin(o),
+                0.0,
+                &Options::default(),
+            );
+            assert!(
+                matches!(r, Err(Error::InvalidOrigin { axis: a, .. }) if a == axis),
+                "{r:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_isovalue() {
+    let d = data();
+    for iso in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let r = extract(&Volume::new(&d, [5, 5, 5]), iso, &Options::default());
+        assert!(matches!(r, Err(Error::InvalidIsovalue(_))), "{r:?}");
+    }
+}
+
+#[test]
+fn bad_epsilon_and_level() {
+    let d = data();
+    let v = Volume::new(&d, [5, 5, 5]);
+    for eps in [-1e-9, -1.0, f64::NAN, f64::INFINITY] {
+        let o = Options {
+            epsilon: eps,
+            ..Options::default()
+        };
+        assert!(
+            matches!(extract(&v, 0.0, &o), Err(Error::InvalidEpsilon(_))),
+            "epsilon {eps}"
+        );
+    }
+    for level in [MAX_LEVEL_LIMIT + 1, 100, u32::MAX] {
+        let o = Options {
+            max_level: level,
+            ..Options::default()
+        };
+        assert_eq!(extract(&v, 0.0, &o), Err(Error::InvalidMaxLevel(level)));
+    }
+    // The limit itself and epsilon 0 are valid.
+    let o = Options {
+        max_level: MAX_LEVEL_LIMIT,
+        epsilon: 0.2,
+        threads: 1,
+        ..Options::default()
+    };
+    assert!(extract(&v, 0.0, &o).is_ok());
+    let o = Options {
+        epsilon: 0.0,
+        ..Options::default()
+    };
+    assert!(extract(&v, 0.0, &o).is_ok());
+}
+
+#[test]
+fn out_of_bounds_buffers() {
+    let d = data(); // 125 samples
+    let oob = |v: Volume<'_>| {
+        let r = extract(&v, 0.0, &Options::default());
+        assert!(matches!(r, Err(Error::OutOfBounds { .. })), "{r:?}");
+    };
+    // Buffer too short.
+    oob(Volume::new(&d[..124], [5, 5, 5]));
+    // Offset pushes the last sample out.
+    oob(Volume::new(&d, [5, 5, 5]).with_offset(1));
+    oob(Volume::new(&d, [5, 5, 5]).with_offset(u64::MAX));
+    // Strides too large.
+    oob(Volume::new(&d, [5, 5, 5]).with_strides([1, 5, 26]));
+    oob(Volume::new(&d, [5, 5, 5]).with_strides([i64::MAX, 1, 1]));
+    // Negative stride without a matching offset reaches below 0.
+    oob(Volume::new(&d, [5, 5, 5]).with_strides([-1, 5, 25]));
+    // Negative strides with a matching offset are fine.
+    let flipped = Volume::new(&d, [5, 5, 5])
+        .with_strides([-1, -5, -25])
+        .with_offset(124);
+    let m = extract(&flipped, 0.0, &Options::default()).unwrap();
+    assert!(!m.triangles.is_empty());
+    // Exact fit is fine.
+    assert!(extract(&Volume::new(&d, [5, 5, 5]), 0.0, &Options::default()).is_ok());
+    // The error reports the offending index and the length.
+    assert_eq!(
+        extract(&Volume::new(&d[..124], [5, 5, 5]), 0.0, &Options::default()),
+        Err(Error::OutOfBounds {
+            index: 124,
+            len: 124
+        })
+    );
+}
+
+#[test]
+fn huge_dimensions_do_not_overflow() {
+    let d = data();
+    let r = extract(&Volume::new(&d, [u64::MAX, 2, 2]), 0.0, &Options::default());
+    assert!(
+        matches!(
+            r,
+            Err(Error::DimensionOverflow(_)) | Err(Error::OutOfBounds { .. })
+        ),
+        "{r:?}"
+    );
+    let r = extract(
+        &Volume::new(&d, [1 << 30, 1 << 30, 1 << 30]),
+        0.0,
+        &Options::default(),
+    );
+    assert!(
+        matches!(
+            r,
+            Err(Error::DimensionOverflow(_)) | Err(Error::OutOfBounds { .. })
+        ),
+        "{r:?}"
+    );
+    let r = extract(
+        &Volume::new(&d, [5, 5, 5]).with_index_offset([i64::MIN, 0, 0]),
+        0.0,
+        &Options::default(),
+    );
+    assert!(matches!(r, Err(Error::DimensionOverflow(_))), "{r:?}");
+}
+
+#[test]
+fn empty_buffer() {
+    let d: Vec<f32> = Vec::new();
+    let r = extract(&Volume::new(&d, [2, 2, 2]), 0.0, &Options::default());
+    assert!(matches!(r, Err(Error::OutOfBounds { .. })), "{r:?}");
+}
+
+#[test]
+fn non_finite_samples_are_skipped_and_counted() {
+    let dims = [9, 9, 9];
+    let base = sphere(dims, [4.1, 3.9, 4.2], 3.0);
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        let mut v = base.clone();
+        // One interior sample on the surface region: touches 8 cells.
+        let at = |i: usize, j: usize, k: usize| i + dims[0] * (j + dims[1] * k);
+        v[at(4, 4, 1)] = bad;
+        // One corner sample of the volume: touches 1 cell.
+        v[at(0, 0, 0)] = bad;
+        for topology in TOPOLOGIES {
+            for opts in [
+                mc_opts(topology),
+                refine_opts(topology, precisemc::Rule::A1, 0.01, 3),
+            ] {
+                let m = extract(&Volume::new(&v, dims_u64(dims)), 0.0, &opts).unwrap();
+                assert_sane(&m);
+                assert_eq!(m.stats.skipped_nonfinite_cells, 9, "{bad}");
+                // A hole where cells are skipped, closed elsewhere.
+                let c = check_mesh(&m);
+                assert!(
+                    c.boundary_edges > 0 && c.nonmanifold_edges == 0 && c.misoriented_edges == 0
+                );
+            }
+            // f32 too.
+            let v32: Vec<f32> = v.iter().map(|&x| x as f32).collect();
+            let m = extract(&Volume::new(&v32, dims_u64(dims)), 0.0, &mc_opts(topology)).unwrap();
+            assert_sane(&m);
+            assert_eq!(m.stats.skipped_nonfinite_cells, 9);
+        }
+    }
+    // All samples non-finite: empty mesh, every cell counted.
+    let v = vec![f64::NAN; 27];
+    let m = extract(&Volume::new(&v, [3, 3, 3]), 0.0, &Options::default()).unwrap();
+    assert!(m.triangles.is_empty());
+    assert_eq!(m.stats.skipped_nonfinite_cells, 8);
+    let _ = Topology::Trilinear;
+}
+
+#[test]
+fn errors_display_and_are_std_errors() {
+    let e: Box<dyn std::error::Error> = Box::new(Error::InvalidMaxLevel(11));
+    assert!(e.to_string().contains("11"));
+    assert!(!Error::Aborted.to_string().is_empty());
+}

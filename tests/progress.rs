@@ -1,0 +1,210 @@
+//! Test 9: progress, cancellation and the triangle cap.
+//!
+//! * The callback gets 0.0 first and 1.0 last, all values in [0, 1] and
+//!   non-decreasing, also when the triangle cap makes the extraction run
+//!   extra passes.
+//! * `Break` at the first call, at a later call, or at the last call gives
+//!   `Err(Error::Aborted)`.
+//! * `max_triangles` is respected, `stats.budget_reached` is set, the
+//!   effective level is reduced, and the capped mesh is still watertight.
+
+mod common;
+
+use std::ops::ControlFlow;
+
+use common::*;
+use precisemc::{extract, extract_with_progress, Error, Options, Rule, Topology, Volume};
+
+/// A volume large enough for refinement to take well over 20 ms in a
+/// debug build (so that intermediate progress is reported).
+fn big() -> ([usize; 3], Vec<f64>) {
+    let dims = [40, 40, 40];
+    (dims, blobs(dims, 9, 40))
+}
+
+fn heavy_opts(threads: usize) -> Options {
+    Options {
+        threads,
+        ..refine_opts(Topology::Trilinear, Rule::A1, 0.001, 5)
+    }
+}
+
+fn record(vol: &Volume<'_>, opts: &Options) -> (Result<precisemc::Mesh, Error>, Vec<f64>) {
+    let mut calls = Vec::new();
+    let r = extract_with_progress(vol, 0.0, opts, &mut |p| {
+        calls.push(p);
+        ControlFlow::Continue(())
+    });
+    (r, calls)
+}
+
+fn assert_progress(calls: &[f64]) {
+    assert!(calls.len() >= 2, "{calls:?}");
+    assert_eq!(calls[0], 0.0, "{calls:?}");
+    assert_eq!(*calls.last().unwrap(), 1.0, "{calls:?}");
+    assert!(calls.iter().all(|p| (0.0..=1.0).contains(p)), "{calls:?}");
+    assert!(
+        calls.windows(2).all(|w| w[1] >= w[0]),
+        "not monotone: {calls:?}"
+    );
+}
+
+#[test]
+fn progress_runs_from_zero_to_one() {
+    let (dims, v) = big();
+    let vol = Volume::new(&v, dims_u64(dims));
+    let (r, calls) = record(&vol, &heavy_opts(2));
+    assert!(r.is_ok());
+    assert_progress(&calls);
+    assert!(
+        calls.len() > 2,
+        "no intermediate progress reported: {calls:?}"
+    );
+    // Tiny volumes too.
+    let small = sphere([4, 4, 4], [1.5, 1.5, 1.5], 1.0);
+    let (r, calls) = record(&Volume::new(&small, [4, 4, 4]), &Options::default());
+    assert!(r.is_ok());
+    assert_progress(&calls);
+}
+
+#[test]
+fn progress_is_monotone_when_the_cap_is_reached() {
+    let (dims, v) = big();
+    let vol = Volume::new(&v, dims_u64(dims));
+    let full = extract(&vol, 0.0, &heavy_opts(2)).unwrap();
+    // A cap most of the way through the first pass.
+    let cap = full.triangles.len() as u64 * 9 / 10;
+    let opts = Options {
+        max_triangles: cap,
+        ..heavy_opts(2)
+    };
+    let (r, calls) = record(&vol, &opts);
+    let m = r.unwrap();
+    assert!(m.stats.budget_reached);
+    assert_progress(&calls);
+}
+
+#[test]
+fn break_aborts() {
+    let (dims, v) = big();
+    let vol = Volume::new(&v, dims_u64(dims));
+    // At the first call.
+    let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| ControlFlow::Break(()));
+    assert_eq!(r, Err(Error::Aborted));
+    // At the second call (during the work).
+    let mut n = 0;
+    let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| {
+        n += 1;
+        if n >= 2 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    assert_eq!(r, Err(Error::Aborted));
+    // At the final 1.0.
+    let small = sphere([6, 6, 6], [2.5, 2.5, 2.5], 2.0);
+    let r = extract_with_progress(
+        &Volume::new(&small, [6, 6, 6]),
+        0.0,
+        &Options::default(),
+        &mut |p| {
+            if p >= 1.0 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        },
+    );
+    assert_eq!(r, Err(Error::Aborted));
+}
+
+/// Cancelling during the work returns quickly (well before the full run).
+#[test]
+fn break_is_prompt() {
+    let (dims, v) = big();
+    let vol = Volume::new(&v, dims_u64(dims));
+    let t = std::time::Instant::now();
+    extract(&vol, 0.0, &heavy_opts(2)).unwrap();
+    let full = t.elapsed();
+    let t = std::time::Instant::now();
+    let mut n = 0;
+    let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| {
+        n += 1;
+        if n >= 2 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    assert_eq!(r, Err(Error::Aborted));
+    let cancelled = t.elapsed();
+    assert!(
+        cancelled < full,
+        "cancel took {cancelled:?}, the full run {full:?}"
+    );
+}
+
+#[test]
+fn triangle_cap_is_respected_and_watertight() {
+    let dims = [16, 16, 16];
+    let v = blobs(dims, 4, 10);
+    let vol = Volume::new(&v, dims_u64(dims));
+    for topology in TOPOLOGIES {
+        for rule in RULES {
+            let opts = refine_opts(topology, rule, 0.0005, 6);
+            let full = extract(&vol, 0.0, &opts).unwrap();
+            assert!(!full.stats.budget_reached);
+            let mc = full.stats.mc_triangles;
+            for cap in [
+                mc,
+                mc + 1,
+                (mc + full.stats.output_triangles) / 2,
+                full.stats.output_triangles - 1,
+            ] {
+                let o = Options {
+                    max_triangles: cap,
+                    ..opts.clone()
+                };
+                let m = extract(&vol, 0.0, &o).unwrap();
+                assert_sane(&m);
+                assert!(
+                    m.triangles.len() as u64 <= cap,
+                    "{topology:?} {rule:?}: {} > cap {cap}",
+                    m.triangles.len()
+                );
+                assert!(m.stats.budget_reached, "{topology:?} {rule:?} cap {cap}");
+                assert!(m.stats.effective_max_level < 6);
+                assert!(m
+                    .levels
+                    .iter()
+                    .all(|&l| (l as u32) <= m.stats.effective_max_level));
+                let c = check_mesh(&m);
+                assert!(
+                    c.is_closed_oriented_manifold(),
+                    "{topology:?} {rule:?} cap {cap}: {c:?}"
+                );
+            }
+            // A cap at or above the output changes nothing.
+            let o = Options {
+                max_triangles: full.stats.output_triangles,
+                ..opts.clone()
+            };
+            let m = extract(&vol, 0.0, &o).unwrap();
+            assert!(!m.stats.budget_reached);
+            assert!(same_mesh(&m, &full));
+        }
+    }
+    // A cap below the Marching Cubes count: refinement is off, the mesh is
+    // the plain Marching Cubes mesh (the cap limits refinement only).
+    let opts = refine_opts(Topology::Trilinear, Rule::A1, 0.001, 4);
+    let mc = extract(&vol, 0.0, &mc_opts(Topology::Trilinear)).unwrap();
+    let o = Options {
+        max_triangles: 10,
+        ..opts
+    };
+    let m = extract(&vol, 0.0, &o).unwrap();
+    assert!(m.stats.budget_reached);
+    assert_eq!(m.stats.effective_max_level, 0);
+    assert_eq!(m.triangles.len(), mc.triangles.len());
+}
