@@ -20,6 +20,7 @@
 #include "vtkNew.h"
 #include "vtkPNGWriter.h"
 #include "vtkPointData.h"
+#include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkPolyDataMapper.h"
 #include "vtkProperty.h"
@@ -181,8 +182,10 @@ void FrameCamera(vtkRenderer* renderer, vtkPolyData* pd, vtkImageData* volume)
   camera->Azimuth(-35.0);
   camera->Elevation(35.0);
   camera->OrthogonalizeViewUp();
+  // ResetCamera fits the bounding sphere: a little zoom fills the view
+  // without cropping elongated shapes.
   renderer->ResetCamera(bounds);
-  camera->Zoom(1.25);
+  camera->Zoom(1.1);
 }
 
 // The window is rendered off screen and saved through a temporary file.
@@ -210,10 +213,74 @@ void SavePNG(vtkRenderWindow* window, const std::string& png)
   CommitFile(tmp, png);
 }
 
+// Each triangle split into n x n triangles (points not shared between
+// triangles: only the geometry is used).
+vtkSmartPointer<vtkPolyData> Subdivided(vtkPolyData* input, int n)
+{
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  points->SetDataTypeToDouble();
+  auto polys = vtkSmartPointer<vtkCellArray>::New();
+  const vtkIdType perTriangle = static_cast<vtkIdType>(n + 1) * (n + 2) / 2;
+  vtkCellArray* cells = input->GetPolys();
+  points->Allocate(cells->GetNumberOfCells() * perTriangle);
+  vtkIdType npts;
+  const vtkIdType* ids;
+  for (cells->InitTraversal(); cells->GetNextCell(npts, ids);)
+  {
+    if (npts != 3)
+    {
+      continue;
+    }
+    double p[3][3];
+    for (int c = 0; c < 3; ++c)
+    {
+      input->GetPoint(ids[c], p[c]);
+    }
+    // Point (i, j) = p0 + i/n (p1 - p0) + j/n (p2 - p0), i + j <= n.
+    std::vector<vtkIdType> grid;
+    for (int j = 0; j <= n; ++j)
+    {
+      for (int i = 0; i + j <= n; ++i)
+      {
+        double a = static_cast<double>(i) / n, b = static_cast<double>(j) / n;
+        double q[3];
+        for (int c = 0; c < 3; ++c)
+        {
+          q[c] = p[0][c] + a * (p[1][c] - p[0][c]) + b * (p[2][c] - p[0][c]);
+        }
+        grid.push_back(points->InsertNextPoint(q));
+      }
+    }
+    // Row j starts at offset(j) and holds n - j + 1 points.
+    auto at = [n, &grid](int i, int j) {
+      int offset = j * (n + 1) - j * (j - 1) / 2;
+      return grid[offset + i];
+    };
+    for (int j = 0; j < n; ++j)
+    {
+      for (int i = 0; i + j < n; ++i)
+      {
+        vtkIdType t[3] = { at(i, j), at(i + 1, j), at(i, j + 1) };
+        polys->InsertNextCell(3, t);
+        if (i + j + 1 < n)
+        {
+          vtkIdType u[3] = { at(i + 1, j), at(i + 1, j + 1), at(i, j + 1) };
+          polys->InsertNextCell(3, u);
+        }
+      }
+    }
+  }
+  auto out = vtkSmartPointer<vtkPolyData>::New();
+  out->SetPoints(points);
+  out->SetPolys(polys);
+  return out;
+}
+
 bool ShowEdges(vtkIdType triangles, int width, int height)
 {
-  // Edges help while triangles cover a dozen pixels or more on average.
-  return triangles > 0 && triangles * 12 < static_cast<vtkIdType>(width) * height;
+  // Edges help while triangles are large on screen; on dense meshes they
+  // only darken the surface (the shape is what the refined side shows).
+  return triangles > 0 && triangles * 40 < static_cast<vtkIdType>(width) * height;
 }
 
 }
@@ -259,9 +326,11 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
 
 void ComputeDistance(Panel& panel)
 {
-  auto result = vtkSmartPointer<vtkPolyData>::New();
-  result->ShallowCopy(panel.MC);
-  vtkIdType n = panel.MC->GetNumberOfPoints();
+  // The MC vertices lie on cell edges, where the linear interpolation of
+  // Marching Cubes is exact: they are on the refined surface too. The
+  // error of MC is inside its triangles, so they are measured there.
+  auto result = Subdivided(panel.MC, 3);
+  vtkIdType n = result->GetNumberOfPoints();
   vtkNew<vtkDoubleArray> distance;
   distance->SetName("DistanceToRefined");
   distance->SetNumberOfTuples(n);
@@ -271,7 +340,7 @@ void ComputeDistance(Panel& panel)
   if (n > 0 && CountTriangles(panel.Refined) > 0)
   {
     auto toIndex = WorldToIndex(panel.Volume);
-    auto mcIndex = Transformed(panel.MC, toIndex);
+    auto mcIndex = Transformed(result, toIndex);
     auto refinedIndex = Transformed(panel.Refined, toIndex);
     // Only the geometry matters.
     mcIndex->GetPointData()->Initialize();
@@ -385,7 +454,7 @@ void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
     actor->GetProperty()->SetSpecular(0.1);
     renderer->AddActor(actor);
     FrameCamera(renderer, panel.Distance, panel.Volume);
-    renderer->GetActiveCamera()->Zoom(0.92);
+    renderer->GetActiveCamera()->Zoom(0.85);
 
     vtkNew<vtkScalarBarActor> bar;
     bar->SetLookupTable(colors);
@@ -410,12 +479,12 @@ void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
     bar->GetTitleTextProperty()->BoldOn();
     renderer->AddActor2D(bar);
 
-    AddText(renderer, panel.Name + ": vtkMarchingCubes vs " + panel.RefinedLabel, 0.5, 0.975,
-      20, 1, true, true);
+    // Short lines: with three panels side by side long titles overlap.
+    AddText(renderer, panel.Name, 0.5, 0.975, 20, 1, true, true);
     AddText(renderer,
-      "max " + Fixed(panel.MaxDistance, 3) + ", mean " + Fixed(panel.MeanDistance, 3) +
-        " cells",
-      0.5, 0.925, 18, 1, true);
+      "vtkMarchingCubes to " + panel.RefinedLabel + ":\nmax " + Fixed(panel.MaxDistance, 3) +
+        ", mean " + Fixed(panel.MeanDistance, 3) + " cells",
+      0.5, 0.93, 16, 1, true);
     window->AddRenderer(renderer);
   }
   SavePNG(window, png);

@@ -82,7 +82,7 @@ Sample MakeTube()
     }
   }
   image->GetPointData()->SetScalars(values);
-  return Sample{ "tube", "a trefoil tube thinner than a cell (48x48x20, uint8)", 130.5, image };
+  return Sample{ "tube", "a trefoil tube thinner than a cell (48x48x20, uint8)", 50.5, image };
 }
 
 // Minimal linear congruential generator, for fixed pseudo-random atoms.
