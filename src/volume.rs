@@ -157,7 +157,8 @@ impl<'a> Volume<'a> {
         }
     }
 
-    /// Sets element strides (all zero = contiguous, x fastest).
+    /// Sets element strides (all zero = contiguous, x fastest). A zero
+    /// stride on some axes only is rejected by [`Volume::validate`].
     pub fn with_strides(mut self, strides: [i64; 3]) -> Self {
         if strides == [0, 0, 0] {
             let dx = self.dims[0] as i64;

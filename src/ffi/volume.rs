@@ -35,7 +35,8 @@ pub struct pmc_volume {
     /// x, y and z. All zero means contiguous with x fastest, i.e.
     /// `{1, dims[0], dims[0] * dims[1]}`. Since `data` is the first
     /// addressed element, negative strides address memory before it and
-    /// are rejected.
+    /// are rejected. A zero stride on some axes but not all is rejected
+    /// too: it would read one sample for a whole axis.
     pub strides: [i64; 3],
     /// World position of global sample index (0, 0, 0); finite.
     pub origin: [f64; 3],
