@@ -2,7 +2,7 @@
 //! Cignoni, Montani and Scopigno, measured on the built-in samples:
 //!
 //! * Table 1: the thin "tube" (9x9x9, threshold 130.5) and the atom density
-//!   map (11x14x14, threshold 50.5, like the paper's SOD section), for
+//!   map (14x14x14, threshold 50.5, like the paper's SOD section), for
 //!   several epsilons and every rule, with max level 10;
 //! * Table 2: the atom density map with max level 1..5 at three epsilons.
 //!
