@@ -30,3 +30,34 @@ ensure_rust() {
         rustup component list --installed 2>/dev/null | grep -q '^rustfmt' || rustup component add rustfmt
     fi
 }
+
+# The VTK side adds the Python headers and make to the list above.
+PMC_DEBIAN_PACKAGES+=(make python3-dev)
+
+# Builds the core (build/core: Rust library, C header, CMake package) and the
+# VTK module with its Python wrapping, C++ tests and the precisemc tool
+# (build/vtk), incrementally: configure steps run once, later calls only
+# rebuild what changed. Shared by tests/vtk/run.sh, tests/cli/run.sh and
+# scripts/quickstart.sh, so nothing builds twice. Sets PMC_VTK_BUILD.
+# Environment: JOBS (default 2), PMC_SKIP_APT=1 never calls apt-get.
+pmc_build_vtk() {
+    local root core vtk configured=""
+    root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+    core="$root/build/core"
+    vtk="$root/build/vtk"
+    if [ "${PMC_SKIP_APT:-0}" != 1 ]; then ensure_packages || return 1; fi
+    ensure_rust || return 1
+    if [ ! -f "$core/CMakeCache.txt" ]; then
+        cmake -S "$root" -B "$core" -DCMAKE_BUILD_TYPE=Release || return 1
+    fi
+    cmake --build "$core" -j"${JOBS:-2}" || return 1
+    if [ -f "$vtk/CMakeCache.txt" ]; then
+        configured="$(sed -n 's/^PreciseMC_DIR:[A-Z]*=//p' "$vtk/CMakeCache.txt")"
+    fi
+    if [ "$configured" != "$core" ]; then
+        cmake -S "$root/cpp" -B "$vtk" -DCMAKE_BUILD_TYPE=Release \
+            -DPreciseMC_DIR="$core" -DPython3_EXECUTABLE=/usr/bin/python3 || return 1
+    fi
+    cmake --build "$vtk" -j"${JOBS:-2}" || return 1
+    PMC_VTK_BUILD="$vtk"
+}

@@ -31,6 +31,7 @@ stage "cargo test" cargo test --all-targets
 stage "doc tests" cargo test --doc
 stage "C API" bash tests/c/run.sh
 stage "VTK filter" bash tests/vtk/run.sh
+stage "command-line tool" bash tests/cli/run.sh
 
 echo "test suites: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -1,5 +1,6 @@
 #include "Common.h"
 
+#include "vtkLogger.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
 #include "vtkOutputWindow.h"
@@ -121,6 +122,9 @@ std::string DirectoryOf(const std::string& path)
 
 void CaptureVTKMessages()
 {
+  // VTK 9 also logs errors to stderr through vtkLogger, besides the
+  // output window.
+  vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
   vtkNew<CaptureOutputWindow> window;
   vtkOutputWindow::SetInstance(window);
 }
@@ -212,7 +216,11 @@ std::string TemporaryPathFor(const std::string& path)
   size_t slash = path.find_last_of('/');
   std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
   std::string prefix = slash == std::string::npos ? "" : path.substr(0, slash + 1);
-  return prefix + "." + name + ".tmp" + std::to_string(static_cast<long>(getpid()));
+  // The extension stays last: some writers (vtkPLYWriter) append theirs
+  // to a name that does not end with it.
+  std::string ext = Extension(name);
+  std::string stem = name.substr(0, name.size() - ext.size());
+  return prefix + "." + stem + ".tmp" + std::to_string(static_cast<long>(getpid())) + ext;
 }
 
 void CommitFile(const std::string& tmp, const std::string& path)

@@ -23,7 +23,13 @@
 #include "vtkXMLImageDataReader.h"
 #include "vtkXMLPolyDataWriter.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include <unistd.h>
 
 namespace pmcapp
 {
@@ -43,12 +49,104 @@ bool IsSurfaceExtension(const std::string& ext)
   throw Error("cannot read '" + path + "': " + why);
 }
 
+// Redirects file descriptor 2 into a temporary file while alive: some
+// libraries under VTK's readers (MetaIO) print their complaints straight
+// to std::cerr, which would break the one-line error report.
+class StderrCapture
+{
+public:
+  StderrCapture()
+  {
+    std::fflush(stderr);
+    std::cerr.flush();
+    this->File = std::tmpfile();
+    this->Saved = this->File ? dup(STDERR_FILENO) : -1;
+    if (this->Saved >= 0)
+    {
+      dup2(fileno(this->File), STDERR_FILENO);
+    }
+  }
+  ~StderrCapture()
+  {
+    this->Restore();
+    if (this->File)
+    {
+      std::fclose(this->File);
+    }
+  }
+  // What was written, first line only, trimmed; restores stderr.
+  std::string Text()
+  {
+    this->Restore();
+    std::string text;
+    if (this->File)
+    {
+      std::rewind(this->File);
+      int c;
+      while ((c = std::fgetc(this->File)) != EOF && text.size() < 4096)
+      {
+        text += static_cast<char>(c);
+      }
+    }
+    size_t b = text.find_first_not_of(" \t\r\n");
+    if (b == std::string::npos)
+    {
+      return std::string();
+    }
+    size_t e = text.find('\n', b);
+    text = text.substr(b, e == std::string::npos ? std::string::npos : e - b);
+    while (!text.empty() && (text.back() == ' ' || text.back() == '\r'))
+    {
+      text.pop_back();
+    }
+    return text;
+  }
+
+private:
+  void Restore()
+  {
+    if (this->Saved >= 0)
+    {
+      std::fflush(stderr);
+      std::cerr.flush();
+      dup2(this->Saved, STDERR_FILENO);
+      close(this->Saved);
+      this->Saved = -1;
+    }
+  }
+  std::FILE* File = nullptr;
+  int Saved = -1;
+};
+
 // Runs the reader and turns captured VTK errors into an Error.
 vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
 {
   TakeVTKErrors();
-  reader->Update();
+  TakeVTKWarnings();
+  std::string stray;
+  {
+    StderrCapture capture;
+    reader->Update();
+    stray = capture.Text();
+  }
   std::vector<std::string> errors = TakeVTKErrors();
+  // MetaIO reports truncated data on std::cerr only.
+  if (!stray.empty())
+  {
+    errors.push_back(stray);
+  }
+  // The legacy reader reports truncated data only as a warning ("Error
+  // reading binary data!"): a warning that speaks of an error is one.
+  for (const std::string& warning : TakeVTKWarnings())
+  {
+    std::string lower = warning;
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+      [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (lower.find("error") != std::string::npos || lower.find("failed") != std::string::npos)
+    {
+      errors.push_back(warning);
+    }
+  }
   if (!errors.empty())
   {
     Unreadable(path, errors.front());
@@ -136,11 +234,27 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
     Unreadable(path, "no such file or directory");
   }
 
-  vtkImageData* image = RunReader(reader, path);
-  if (!image || image->GetNumberOfPoints() == 0)
+  vtkImageData* image = nullptr;
+  if (IsDirectory(path))
   {
-    Unreadable(path, IsDirectory(path) ? "no DICOM series found in the directory"
-                                       : "the file holds no image data");
+    // vtkDICOMImageReader complains about slice order for series it still
+    // reads: only an empty result is a failure.
+    TakeVTKErrors();
+    reader->Update();
+    TakeVTKErrors();
+    image = vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));
+    if (!image || image->GetNumberOfPoints() == 0)
+    {
+      Unreadable(path, "no DICOM series found in the directory");
+    }
+  }
+  else
+  {
+    image = RunReader(reader, path);
+    if (!image || image->GetNumberOfPoints() == 0)
+    {
+      Unreadable(path, "the file holds no image data");
+    }
   }
   int dims[3];
   image->GetDimensions(dims);

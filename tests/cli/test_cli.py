@@ -1,0 +1,529 @@
+#!/usr/bin/python3
+"""Tests of the precisemc command-line tool, run by tests/cli/run.sh.
+
+A plain script (not pytest) so that it can count its checks and print the
+closing line "cli: N passed, M failed". It needs Debian's /usr/bin/python3
+(VTK's Python bindings) to write the input volumes and read the outputs
+back. Environment: PRECISEMC (the tool), CLI_TMP (scratch directory).
+"""
+import os
+import re
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import traceback
+
+import numpy as np
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonDataModel import vtkImageData
+from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
+from vtkmodules.vtkIOImage import vtkMetaImageWriter, vtkNIFTIImageWriter, vtkPNGReader
+from vtkmodules.vtkIOLegacy import vtkStructuredPointsWriter
+from vtkmodules.vtkIOPLY import vtkPLYReader
+from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLPolyDataReader
+
+TOOL = os.environ.get("PRECISEMC", "build/vtk/bin/precisemc")
+SCRATCH = os.environ.get("CLI_TMP") or tempfile.mkdtemp(prefix="precisemc-cli-")
+TIMEOUT = 300
+
+CHECKS = []
+
+
+def check(fn):
+    CHECKS.append(fn)
+    return fn
+
+
+class Failure(Exception):
+    pass
+
+
+def expect(condition, message):
+    if not condition:
+        raise Failure(message)
+
+
+def run(*args, env=None, cwd=None):
+    environment = dict(os.environ)
+    # Exercise the tool's own display handling (xvfb-run or Xvfb).
+    environment.pop("DISPLAY", None)
+    environment.pop("PRECISEMC_UNDER_XVFB_RUN", None)
+    if env:
+        environment.update(env)
+    return subprocess.run([TOOL, *map(str, args)], capture_output=True, text=True, env=environment,
+                          cwd=cwd, timeout=TIMEOUT)
+
+
+def ok(*args, **kw):
+    r = run(*args, **kw)
+    expect(r.returncode == 0, f"exit status {r.returncode}, stderr: {r.stderr.strip()!r}")
+    expect(r.stderr == "", f"unexpected stderr on success: {r.stderr!r}")
+    return r
+
+
+def fresh_dir(name):
+    d = os.path.join(SCRATCH, name)
+    shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d)
+    return d
+
+
+def table_value(stdout, key):
+    """The integer of row `key` of the first table ('output triangles 7 030 (x...)')."""
+    m = re.search(r"^  " + re.escape(key) + r"\s+([0-9 ]+[0-9])", stdout, re.M)
+    expect(m, f"no row {key!r} in the table:\n{stdout}")
+    return int(m.group(1).replace(" ", ""))
+
+
+def table_values(stdout, key):
+    return [int(v.replace(" ", "")) for v in
+            re.findall(r"^  " + re.escape(key) + r"\s+([0-9 ]+[0-9])", stdout, re.M)]
+
+
+def expect_error(args, fragment=None, outputs=(), status=None, env=None, cwd=None):
+    """A failing run: non-zero status, exactly one stderr line 'precisemc:
+    error: ...', nothing on stdout, none of `outputs` (nor temporary files
+    next to them) left behind."""
+    r = run(*args, env=env, cwd=cwd)
+    expect(r.returncode != 0, f"exit status 0 for {args}")
+    if status is not None:
+        expect(r.returncode == status, f"exit status {r.returncode}, expected {status}")
+    lines = r.stderr.splitlines()
+    expect(len(lines) == 1, f"expected one stderr line, got {len(lines)}: {r.stderr!r}")
+    expect(lines[0].startswith("precisemc: error: "), f"stderr: {lines[0]!r}")
+    if fragment:
+        expect(fragment.lower() in lines[0].lower(), f"{fragment!r} not in {lines[0]!r}")
+    expect(r.stdout == "", f"stdout not empty: {r.stdout!r}")
+    for path in outputs:
+        expect(not os.path.exists(path), f"{path} was written")
+        d = os.path.dirname(path) or "."
+        if os.path.isdir(d):
+            leftovers = [f for f in os.listdir(d) if ".tmp" in f]
+            expect(not leftovers, f"temporary files left: {leftovers}")
+    return lines[0]
+
+
+# --- Reading outputs back -----------------------------------------------------
+
+def read_surface(path):
+    ext = os.path.splitext(path)[1].lower()
+    reader = {".vtp": vtkXMLPolyDataReader, ".ply": vtkPLYReader, ".stl": vtkSTLReader,
+              ".obj": vtkOBJReader}[ext]()
+    reader.SetFileName(path)
+    reader.Update()
+    return reader.GetOutput()
+
+
+def png_size(path):
+    expect(os.path.isfile(path) and os.path.getsize(path) > 1000, f"{path} missing or tiny")
+    with open(path, "rb") as f:
+        head = f.read(24)
+    expect(head[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG")
+    reader = vtkPNGReader()
+    reader.SetFileName(path)
+    reader.Update()
+    dims = reader.GetOutput().GetDimensions()
+    # Not a blank picture: some variation in the pixels.
+    scalars = reader.GetOutput().GetPointData().GetScalars()
+    lo, hi = scalars.GetRange(0)
+    expect(hi - lo > 50, f"{path} looks blank (red channel range {lo}..{hi})")
+    return dims[0], dims[1]
+
+
+# --- Input volumes --------------------------------------------------------------
+
+def blob_volume():
+    """Two Gaussian blobs on a 24x20x18 grid, float32, anisotropic spacing;
+    scalar range about [0, 100]."""
+    nx, ny, nz = 24, 20, 18
+    z, y, x = np.mgrid[0:nz, 0:ny, 0:nx].astype(np.float64)
+    v = 100.0 * np.exp(-((x - 8.3) ** 2 + (y - 9.6) ** 2 + (z - 8.1) ** 2) / 18.0)
+    v += 80.0 * np.exp(-((x - 15.7) ** 2 + (y - 10.2) ** 2 + (z - 9.4) ** 2) / 12.0)
+    return (nx, ny, nz), (0.8, 0.9, 1.1), (1.0, -2.0, 0.5), v.astype(np.float32)
+
+
+def blob_image():
+    dims, spacing, origin, v = blob_volume()
+    image = vtkImageData()
+    image.SetDimensions(*dims)
+    image.SetSpacing(*spacing)
+    image.SetOrigin(*origin)
+    arr = numpy_to_vtk(v.ravel(), deep=True)
+    arr.SetName("density")
+    image.GetPointData().SetScalars(arr)
+    return image
+
+
+def write_inputs(d):
+    """The blob volume in every readable format; returns {label: path}."""
+    image = blob_image()
+    paths = {}
+
+    w = vtkXMLImageDataWriter()
+    paths["vti"] = os.path.join(d, "blob.vti")
+    w.SetFileName(paths["vti"])
+    w.SetInputData(image)
+    w.Write()
+
+    w = vtkStructuredPointsWriter()
+    paths["vtk"] = os.path.join(d, "blob.vtk")
+    w.SetFileName(paths["vtk"])
+    w.SetInputData(image)
+    w.SetFileTypeToBinary()
+    w.Write()
+
+    for ext in ("mha", "mhd"):
+        w = vtkMetaImageWriter()
+        paths[ext] = os.path.join(d, "blob." + ext)
+        w.SetFileName(paths[ext])
+        if ext == "mhd":
+            w.SetRAWFileName(os.path.join(d, "blob.raw"))
+        w.SetCompression(False)
+        w.SetInputData(image)
+        w.Write()
+
+    for ext in ("nii", "nii.gz"):
+        w = vtkNIFTIImageWriter()
+        paths[ext] = os.path.join(d, "blob." + ext)
+        w.SetFileName(paths[ext])
+        w.SetInputData(image)
+        w.Write()
+
+    # VTK has no NRRD writer: the format is a text header and raw data.
+    dims, spacing, _, v = blob_volume()
+    header = ("NRRD0004\ntype: float\ndimension: 3\nsizes: %d %d %d\nspacings: %g %g %g\n"
+              "endian: little\nencoding: raw\n" % (*dims, *spacing))
+    paths["nrrd"] = os.path.join(d, "blob.nrrd")
+    with open(paths["nrrd"], "wb") as f:
+        f.write(header.encode() + b"\n" + v.astype("<f4").tobytes())
+    paths["nhdr"] = os.path.join(d, "blob.nhdr")
+    with open(os.path.join(d, "blob-nrrd.raw"), "wb") as f:
+        f.write(v.astype("<f4").tobytes())
+    with open(paths["nhdr"], "w") as f:
+        f.write(header + "data file: blob-nrrd.raw\n\n")
+    return paths
+
+
+# --- Checks ---------------------------------------------------------------------
+
+@check
+def help_and_version():
+    r = ok("--help")
+    expect(r.stdout.startswith("usage: precisemc"), "help text")
+    for option in ("--value", "--epsilon", "--max-level", "--rule", "--topology", "--normals",
+                   "--max-triangles", "--threads", "--output", "--compare", "--distance",
+                   "--quiet", "--sample", "--version"):
+        expect(option in r.stdout, f"{option} not in --help")
+    r = ok("--version")
+    expect(re.match(r"precisemc \d+\.\d+\.\d+ \(VTK 9\.", r.stdout), r.stdout)
+
+
+def sample_check(name):
+    def fn():
+        d = fresh_dir("sample-" + name)
+        out = os.path.join(d, name + ".vtp")
+        r = ok("--sample", name, "-o", out)
+        expect(r.stdout.startswith(name + ": "), f"table header: {r.stdout[:80]!r}")
+        mc = table_value(r.stdout, "MC triangles")
+        refined = table_value(r.stdout, "output triangles")
+        expect(0 < mc < refined, f"MC {mc}, output {refined}: refinement added nothing")
+        for key in ("cells", "maxL / meanL", "time", "isovalue"):
+            expect(re.search(r"^  " + re.escape(key), r.stdout, re.M), f"no row {key}")
+        pd = read_surface(out)
+        expect(pd.GetNumberOfPolys() == refined,
+               f"{out}: {pd.GetNumberOfPolys()} triangles, table says {refined}")
+        expect(pd.GetPointData().GetNormals() is not None, "no normals in the .vtp")
+        expect(pd.GetCellData().GetArray("RefinementLevel") is not None, "no RefinementLevel")
+    fn.__name__ = "sample_" + name
+    return fn
+
+
+for _name in ("tube", "atoms", "ml"):
+    check(sample_check(_name))
+
+
+@check
+def sample_all_writes_one_file_per_sample():
+    d = fresh_dir("sample-all")
+    r = ok("--sample", "all", "-o", os.path.join(d, "s.vtp"))
+    refined = table_values(r.stdout, "output triangles")
+    expect(len(refined) == 3, f"{len(refined)} tables")
+    for name, count in zip(("tube", "atoms", "ml"), refined):
+        pd = read_surface(os.path.join(d, f"s-{name}.vtp"))
+        expect(pd.GetNumberOfPolys() == count, f"s-{name}.vtp: {pd.GetNumberOfPolys()} != {count}")
+    expect(sorted(os.listdir(d)) == ["s-atoms.vtp", "s-ml.vtp", "s-tube.vtp"], os.listdir(d))
+    # No input and no --sample: the same three samples.
+    r2 = ok("-q")
+    expect(r2.stdout == "", "-q printed something")
+    r3 = ok()
+    expect(table_values(r3.stdout, "output triangles") == refined, "default run differs")
+
+
+def format_check(ext):
+    def fn():
+        d = fresh_dir("format-" + ext)
+        out = os.path.join(d, "atoms." + ext)
+        r = ok("--sample", "atoms", "-o", out)
+        refined = table_value(r.stdout, "output triangles")
+        pd = read_surface(out)
+        expect(pd.GetNumberOfPolys() == refined,
+               f"{out}: {pd.GetNumberOfPolys()} triangles read back, table says {refined}")
+        expect(pd.GetNumberOfPoints() >= 3, "no points")
+        expect(os.listdir(d) == ["atoms." + ext], f"extra files: {os.listdir(d)}")
+    fn.__name__ = "output_" + ext
+    return fn
+
+
+for _ext in ("vtp", "ply", "stl", "obj"):
+    check(format_check(_ext))
+
+
+@check
+def input_formats():
+    d = fresh_dir("inputs")
+    paths = write_inputs(d)
+    counts = {}
+    for label, path in paths.items():
+        out = os.path.join(d, f"out-{label.replace('.', '-')}.vtp")
+        r = run(path, "-o", out)
+        expect(r.returncode == 0, f"{label}: {r.stderr.strip()}")
+        expect(re.search(r"^isovalue [0-9.]+: the middle of the scalar range", r.stdout, re.M),
+               f"{label}: default isovalue not announced:\n{r.stdout}")
+        counts[label] = table_value(r.stdout, "output triangles")
+        expect(read_surface(out).GetNumberOfPolys() == counts[label], f"{label}: read back")
+    # The same samples in every format: the same surface.
+    expect(len(set(counts.values())) == 1, f"triangle counts differ between formats: {counts}")
+    expect(set(paths) == {"vti", "vtk", "mha", "mhd", "nii", "nii.gz", "nrrd", "nhdr"}, paths)
+
+
+@check
+def explicit_values_and_filter_options():
+    d = fresh_dir("options")
+    paths = write_inputs(d)
+    r1 = ok(paths["vti"], "-v", "30")
+    r2 = ok(paths["vti"], "-v", "30", "--value", "60")
+    expect("isovalues" in r2.stdout and "30, 60" in r2.stdout, r2.stdout)
+    expect(table_value(r2.stdout, "output triangles") > table_value(r1.stdout, "output triangles"),
+           "two isovalues give no more triangles than one")
+    # --epsilon 0 / --max-level 0: plain Marching Cubes.
+    for args in (("--epsilon", "0"), ("--max-level", "0")):
+        r = ok(paths["vti"], "-v", "30", *args)
+        expect(table_value(r.stdout, "output triangles") == table_value(r.stdout, "MC triangles"),
+               f"{args}: refinement happened")
+    # The other options are accepted, with both spellings.
+    r = ok("--sample=tube", "--rule", "B", "--topology=classic", "--normals", "central",
+           "--threads", "1", "--max-level=3", "--epsilon", "0.05")
+    expect(table_value(r.stdout, "maxL / meanL") <= 3, "max level not applied")
+    out = os.path.join(d, "nonormals.vtp")
+    ok("--sample", "tube", "--normals", "none", "-o", out)
+    expect(read_surface(out).GetPointData().GetNormals() is None, "normals written with none")
+    for rule in ("A", "a1", "A2", "b"):
+        ok("--sample", "tube", "--rule", rule, "-q")
+    r = ok("--sample", "atoms", "--max-triangles", "4000")
+    mc = table_value(r.stdout, "MC triangles")
+    out_tris = table_value(r.stdout, "output triangles")
+    expect(out_tris <= max(4000, mc), f"--max-triangles 4000 gave {out_tris}")
+    expect("capped by --max-triangles" in r.stdout, "cap not reported")
+
+
+@check
+def compare_and_distance_pictures():
+    d = fresh_dir("pictures")
+    c, dist = os.path.join(d, "c.png"), os.path.join(d, "d.png")
+    r = ok("--sample", "tube", "--compare", c, "--distance", dist)
+    expect(png_size(c) == (1600, 800), f"compare size {png_size(c)}")
+    expect(png_size(dist) == (1000, 860), f"distance size {png_size(dist)}")
+    expect(re.search(r"MC to refined\s+max [0-9.]+, mean", r.stdout), "no distance row")
+    c3, d3 = os.path.join(d, "c3.png"), os.path.join(d, "d3.png")
+    ok("--sample", "all", "--compare", c3, "--distance", d3)
+    expect(png_size(c3) == (1600, 1680), f"compare size {png_size(c3)}")
+    expect(png_size(d3) == (1800, 760), f"distance size {png_size(d3)}")
+    expect(sorted(os.listdir(d)) == ["c.png", "c3.png", "d.png", "d3.png"], os.listdir(d))
+
+
+@check
+def pictures_of_a_file():
+    d = fresh_dir("pictures-file")
+    paths = write_inputs(d)
+    c = os.path.join(d, "c.png")
+    ok(paths["nii.gz"], "-v", "40", "--compare", c)
+    expect(png_size(c) == (1600, 800), "size")
+
+
+@check
+def pictures_without_any_x_server():
+    d = fresh_dir("no-x")
+    c = os.path.join(d, "c.png")
+    # Neither xvfb-run nor Xvfb on PATH (the tool is called by full path).
+    expect_error(["--sample", "tube", "--compare", c], "xvfb", outputs=[c],
+                 env={"PATH": "/nonexistent"})
+
+
+# --- Bad input ------------------------------------------------------------------
+
+@check
+def error_missing_input():
+    d = fresh_dir("err-missing")
+    out = os.path.join(d, "o.vtp")
+    expect_error([os.path.join(d, "nope.vti"), "-o", out], "no such file", outputs=[out])
+
+
+@check
+def error_unknown_input_extension():
+    d = fresh_dir("err-ext")
+    path = os.path.join(d, "volume.xyz")
+    with open(path, "w") as f:
+        f.write("hello\n")
+    out = os.path.join(d, "o.vtp")
+    expect_error([path, "-o", out], "unknown input format", outputs=[out])
+
+
+@check
+def error_corrupt_inputs():
+    d = fresh_dir("err-corrupt")
+    good = write_inputs(fresh_dir("err-corrupt-src"))
+    cases = {}
+    for ext in ("vti", "vtk", "mha", "nii", "nii.gz", "nrrd"):
+        path = os.path.join(d, "garbage." + ext)
+        with open(path, "wb") as f:
+            f.write(b"this is not a volume\n" * 20)
+        cases["garbage." + ext] = path
+    # Truncated files: a valid header without all the data.
+    for ext in ("vti", "vtk", "mha", "nrrd", "nii"):
+        with open(good[ext], "rb") as f:
+            data = f.read()
+        path = os.path.join(d, "truncated." + ext)
+        with open(path, "wb") as f:
+            f.write(data[: len(data) // 3])
+        cases["truncated." + ext] = path
+    # Empty file.
+    path = os.path.join(d, "empty.vti")
+    open(path, "w").close()
+    cases["empty.vti"] = path
+    out = os.path.join(d, "o.vtp")
+    for label, path in cases.items():
+        try:
+            expect_error([path, "-o", out], outputs=[out])
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+
+
+@check
+def error_not_a_volume():
+    d = fresh_dir("err-2d")
+    image = vtkImageData()
+    image.SetDimensions(8, 8, 1)
+    arr = numpy_to_vtk(np.arange(64, dtype=np.float32), deep=True)
+    arr.SetName("s")
+    image.GetPointData().SetScalars(arr)
+    path = os.path.join(d, "slice.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(image)
+    w.Write()
+    expect_error([path], "not a 3D volume")
+    empty = os.path.join(d, "emptydir")
+    os.makedirs(empty)
+    expect_error([empty], "DICOM")
+
+
+@check
+def error_isovalue_outside_range():
+    d = fresh_dir("err-iso")
+    paths = write_inputs(d)
+    out = os.path.join(d, "o.vtp")
+    expect_error([paths["vti"], "-v", "1000", "-o", out], "outside the scalar range", outputs=[out])
+    expect_error(["--sample", "tube", "-v", "-1", "-o", out], "outside the scalar range",
+                 outputs=[out])
+    # One bad value among good ones, and for one sample of "all": nothing written.
+    expect_error(["--sample", "all", "-v", "50", "-o", out], "outside the scalar range",
+                 outputs=[out] + [os.path.join(d, f"o-{n}.vtp") for n in ("tube", "atoms", "ml")])
+
+
+@check
+def error_bad_option_values():
+    d = fresh_dir("err-options")
+    out = os.path.join(d, "o.vtp")
+    cases = [
+        (["--epsilon", "-0.1"], "--epsilon"),
+        (["--epsilon", "abc"], "not a finite number"),
+        (["--epsilon", "nan"], "not a finite number"),
+        (["--rule", "C"], "unknown value"),
+        (["--topology", "smooth"], "unknown value"),
+        (["--normals", "flat"], "unknown value"),
+        (["--max-level", "11"], "too large"),
+        (["--max-level", "x"], "not a non-negative integer"),
+        (["--threads", "-1"], "not a non-negative integer"),
+        (["--max-triangles", "1e6"], "not a non-negative integer"),
+        (["-v", "foo"], "not a finite number"),
+        (["-v"], "needs a value"),
+        (["--sample", "cube"], "unknown sample"),
+        (["--frobnicate"], "unknown option"),
+        (["a.vti", "b.vti"], "only one input"),
+        (["a.vti", "--sample", "tube"], "not both"),
+        (["--compare", os.path.join(d, "c.jpg")], "png"),
+    ]
+    for args, fragment in cases:
+        try:
+            expect_error(["--sample", "tube", "-o", out, *args]
+                         if "--sample" not in args and "a.vti" not in args else
+                         [*args, "-o", out], fragment, outputs=[out], status=2)
+        except Failure as e:
+            raise Failure(f"{args}: {e}")
+
+
+@check
+def error_unwritable_outputs():
+    d = fresh_dir("err-write")
+    missing_dir = os.path.join(d, "no", "such", "dir", "o.vtp")
+    expect_error(["--sample", "tube", "-o", missing_dir], "does not exist", outputs=[missing_dir])
+    expect_error(["--sample", "tube", "-o", d], "", outputs=[])
+    adir = os.path.join(d, "adir.vtp")
+    os.makedirs(adir)
+    expect_error(["--sample", "tube", "-o", adir], "is a directory")
+    expect_error(["--sample", "tube", "-o", os.path.join(d, "o.xyz")], "unknown output format",
+                 outputs=[os.path.join(d, "o.xyz")])
+    png = os.path.join(d, "no", "c.png")
+    expect_error(["--sample", "tube", "--compare", png], "does not exist", outputs=[png])
+    # A bad picture path fails before the surface is written.
+    out = os.path.join(d, "o.vtp")
+    expect_error(["--sample", "tube", "-o", out, "--distance", png], "does not exist",
+                 outputs=[out])
+    expect(sorted(os.listdir(d)) == ["adir.vtp"], f"left behind: {os.listdir(d)}")
+
+
+@check
+def no_progress_bar_when_not_a_terminal():
+    r = ok("--sample", "ml")
+    expect(r.stderr == "", "stderr written")
+
+
+def main():
+    if not os.access(TOOL, os.X_OK):
+        print(f"cli: the tool {TOOL} is not built")
+        print("cli: 0 passed, 1 failed")
+        return 1
+    passed = failed = 0
+    for fn in CHECKS:
+        try:
+            fn()
+        except Failure as e:
+            failed += 1
+            print(f"FAIL {fn.__name__}: {e}", flush=True)
+        except subprocess.TimeoutExpired as e:
+            failed += 1
+            print(f"FAIL {fn.__name__}: timed out after {TIMEOUT} s: {e.cmd}", flush=True)
+        except Exception:  # a bug of the test itself counts as a failure
+            failed += 1
+            print(f"FAIL {fn.__name__}: {traceback.format_exc()}", flush=True)
+        else:
+            passed += 1
+            print(f"ok   {fn.__name__}", flush=True)
+    print(f"cli: {passed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
