@@ -299,6 +299,21 @@ def input_formats():
 
 
 @check
+def input_dicom_series():
+    from dicom import write_series
+    d = fresh_dir("dicom")
+    _, spacing, _, v = blob_volume()
+    series = os.path.join(d, "series")
+    write_series(series, np.round(v * 10.0).astype(np.int16), spacing)
+    out = os.path.join(d, "dicom.vtp")
+    r = ok(series, "-o", out)
+    expect("series: 24x20x18, short" in r.stdout, f"table header:\n{r.stdout}")
+    expect(re.search(r"^isovalue 495\.5: the middle", r.stdout, re.M), r.stdout)
+    refined = table_value(r.stdout, "output triangles")
+    expect(refined > 0 and read_surface(out).GetNumberOfPolys() == refined, "read back")
+
+
+@check
 def explicit_values_and_filter_options():
     d = fresh_dir("options")
     paths = write_inputs(d)
