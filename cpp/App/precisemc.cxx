@@ -73,11 +73,17 @@ public:
     }
     double fraction = *static_cast<double*>(callData);
     fraction = fraction < 0.0 ? 0.0 : (fraction > 1.0 ? 1.0 : fraction);
+    // The filter reports often: redraw only when the percentage moves.
+    int percent = static_cast<int>(fraction * 100.0 + 0.5);
+    if (this->Drawn && percent == this->Percent)
+    {
+      return;
+    }
+    this->Percent = percent;
     const int width = 30;
     int filled = static_cast<int>(fraction * width + 0.5);
     std::fprintf(stderr, "\r%s [%s%s] %3d%%", this->Label.c_str(),
-      std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
-      static_cast<int>(fraction * 100.0 + 0.5));
+      std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), percent);
     std::fflush(stderr);
     this->Drawn = true;
   }
@@ -97,6 +103,7 @@ private:
   std::string Label;
   bool Enabled = false;
   bool Drawn = false;
+  int Percent = -1;
   Clock::time_point Begin;
 };
 

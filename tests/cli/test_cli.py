@@ -368,6 +368,20 @@ def pictures_of_a_file():
 
 
 @check
+def pictures_with_xvfb_but_no_xvfb_run():
+    xvfb = shutil.which("Xvfb")
+    expect(xvfb, "Xvfb is not installed")
+    d = fresh_dir("xvfb-only")
+    bindir = os.path.join(d, "bin")
+    os.makedirs(bindir)
+    os.symlink(xvfb, os.path.join(bindir, "Xvfb"))
+    c = os.path.join(d, "c.png")
+    # The tool starts Xvfb itself (-displayfd) and stops it on exit.
+    ok("--sample", "atoms", "--compare", c, env={"PATH": bindir})
+    expect(png_size(c) == (1600, 800), "size")
+
+
+@check
 def pictures_without_any_x_server():
     d = fresh_dir("no-x")
     c = os.path.join(d, "c.png")
