@@ -31,8 +31,9 @@ ensure_rust() {
     fi
 }
 
-# The VTK side adds the Python headers and make to the list above.
-PMC_DEBIAN_PACKAGES+=(make python3-dev)
+# The VTK side adds the Python headers and make to the list above, and
+# Mesa's software OpenGL driver, which the pictures render with under Xvfb.
+PMC_DEBIAN_PACKAGES+=(make python3-dev libgl1-mesa-dri)
 
 # Builds the core (build/core: Rust library, C header, CMake package) and the
 # VTK module with its Python wrapping, C++ tests and the precisemc tool
