@@ -32,6 +32,7 @@ stage "doc tests" cargo test --doc
 stage "C API" bash tests/c/run.sh
 stage "VTK filter" bash tests/vtk/run.sh
 stage "command-line tool" bash tests/cli/run.sh
+stage "ParaView plugin" bash tests/paraview/run.sh
 
 echo "test suites: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]
