@@ -343,10 +343,41 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     return 1;
   }
 
+  // The extent contoured: the input's, cropped to the requested update
+  // extent. A source may deliver more than it was asked for (ghost layers,
+  // or the whole volume from a reader that cannot stream); contouring only
+  // the requested piece keeps the pieces of a distributed run from
+  // overlapping. Neighbouring pieces share a layer of samples, so their
+  // surfaces meet without a gap.
+  int dataExtent[6];
+  input->GetExtent(dataExtent);
+  int dataDims[3];
+  input->GetDimensions(dataDims);
   int extent[6];
-  input->GetExtent(extent);
+  std::copy(dataExtent, dataExtent + 6, extent);
+  if (inInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))
+  {
+    int update[6];
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), update);
+    if (update[0] <= update[1] && update[2] <= update[3] && update[4] <= update[5])
+    {
+      for (int i = 0; i < 3; ++i)
+      {
+        extent[2 * i] = std::max(extent[2 * i], update[2 * i]);
+        extent[2 * i + 1] = std::min(extent[2 * i + 1], update[2 * i + 1]);
+      }
+    }
+  }
   int dims[3];
-  input->GetDimensions(dims);
+  for (int i = 0; i < 3; ++i)
+  {
+    dims[i] = extent[2 * i + 1] - extent[2 * i] + 1;
+  }
+  if (dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
+  {
+    vtkDebugMacro(<< "The requested extent holds no samples of the input");
+    return 1;
+  }
   if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
   {
     vtkErrorMacro(<< "Cannot contour data of dimension != 3 (dimensions " << dims[0] << " x "
@@ -385,11 +416,17 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     }
   }
 
+  // The first sample of the contoured extent, as a value index.
+  const uint64_t first = static_cast<uint64_t>(numComps) *
+      (static_cast<uint64_t>(extent[0] - dataExtent[0]) +
+        static_cast<uint64_t>(extent[2] - dataExtent[2]) * static_cast<uint64_t>(dataDims[0]) +
+        static_cast<uint64_t>(extent[4] - dataExtent[4]) * static_cast<uint64_t>(dataDims[0]) *
+          static_cast<uint64_t>(dataDims[1])) +
+    static_cast<uint64_t>(this->ArrayComponent);
   pmc_volume volume;
   volume.data = static_cast<const char*>(contiguous->GetVoidPointer(0)) +
-    static_cast<size_t>(this->ArrayComponent) * contiguous->GetDataTypeSize();
-  volume.len = static_cast<uint64_t>(contiguous->GetNumberOfValues()) -
-    static_cast<uint64_t>(this->ArrayComponent);
+    static_cast<size_t>(first) * contiguous->GetDataTypeSize();
+  volume.len = static_cast<uint64_t>(contiguous->GetNumberOfValues()) - first;
   volume.scalar_type = scalarType;
   for (int i = 0; i < 3; ++i)
   {
@@ -398,8 +435,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     volume.spacing[i] = std::fabs(spacing[i]);
   }
   volume.strides[0] = numComps;
-  volume.strides[1] = static_cast<int64_t>(numComps) * dims[0];
-  volume.strides[2] = static_cast<int64_t>(numComps) * dims[0] * dims[1];
+  volume.strides[1] = static_cast<int64_t>(numComps) * dataDims[0];
+  volume.strides[2] = static_cast<int64_t>(numComps) * dataDims[0] * dataDims[1];
 
   // Options shared by all contour values.
   OptionsPtr options(pmc_options_new());
@@ -729,27 +766,30 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       vtkNew<vtkIdList> cellPts;
       cellPts->SetNumberOfIds(8);
       double weights[8];
-      const vtkIdType sliceSize = static_cast<vtkIdType>(dims[0]) * dims[1];
+      // Cells are indexed in the input's arrays (dataExtent) and clamped to
+      // the contoured extent.
+      const vtkIdType sliceSize = static_cast<vtkIdType>(dataDims[0]) * dataDims[1];
       for (vtkIdType i = 0; i < numPts; ++i)
       {
         int cell[3];
         double r[3];
         for (int d = 0; d < 3; ++d)
         {
-          double local = indexPoints[3 * i + d] - extent[2 * d];
+          double local = indexPoints[3 * i + d] - dataExtent[2 * d];
           int c0 = static_cast<int>(std::floor(local));
-          c0 = std::max(0, std::min(dims[d] - 2, c0));
+          const int lo = extent[2 * d] - dataExtent[2 * d];
+          c0 = std::max(lo, std::min(lo + dims[d] - 2, c0));
           cell[d] = c0;
           r[d] = std::max(0.0, std::min(1.0, local - c0));
         }
-        const vtkIdType base = cell[0] + cell[1] * static_cast<vtkIdType>(dims[0]) +
+        const vtkIdType base = cell[0] + cell[1] * static_cast<vtkIdType>(dataDims[0]) +
           cell[2] * sliceSize;
         for (int corner = 0; corner < 8; ++corner)
         {
           const int di = corner & 1;
           const int dj = (corner >> 1) & 1;
           const int dk = (corner >> 2) & 1;
-          cellPts->SetId(corner, base + di + dj * dims[0] + dk * sliceSize);
+          cellPts->SetId(corner, base + di + dj * dataDims[0] + dk * sliceSize);
           weights[corner] = (di ? r[0] : 1.0 - r[0]) * (dj ? r[1] : 1.0 - r[1]) *
             (dk ? r[2] : 1.0 - r[2]);
         }
@@ -778,12 +818,19 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 }
 
 //------------------------------------------------------------------------------
-// The whole input is requested for now; splitting the volume into pieces
-// that share a layer of samples is left to the default behaviour.
+// The piece asked for downstream is passed upstream as is (image pieces
+// share their boundary samples, which is all the filter needs), but without
+// ghost levels: the surface of a ghost layer would belong to two pieces.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
-  return this->Superclass::RequestUpdateExtent(request, inputVector, outputVector);
+  int result = this->Superclass::RequestUpdateExtent(request, inputVector, outputVector);
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  if (inInfo)
+  {
+    inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+  }
+  return result;
 }
 
 //------------------------------------------------------------------------------

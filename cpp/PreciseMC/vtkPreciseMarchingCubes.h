@@ -51,6 +51,12 @@
  * spacing and a direction matrix are supported: points computed for pieces
  * of a volume that share a layer of samples are bit-identical.
  *
+ * In a distributed pipeline each piece contours the input cropped to the
+ * requested update extent, and no ghost levels are requested from the
+ * input: image pieces share their boundary samples, so the union of the
+ * pieces' surfaces is the surface of the whole volume, without cracks or
+ * overlaps.
+ *
  * The work is done by the PreciseMC library (Rust) through its C API, in
  * parallel over all cores unless NumberOfThreads is set; the output does
  * not depend on the number of threads.

@@ -22,11 +22,19 @@ import paraview.simple as pvs
 from vtkmodules.util.numpy_support import vtk_to_numpy
 
 # The configurations compared: plain Marching Cubes and refined surfaces.
+# "ghosts": a filter downstream asks for a ghost level, which must not make
+# the pieces overlap (the filter asks its input for none).
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     "refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1"),
     "refined-classic-B": dict(Epsilon=0.002, MaxLevel=3, Rule="B", Topology="Classic"),
+    "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
 }
+ASK_FOR_GHOSTS = """
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
+info = self.GetExecutive().GetInputInformation(0, 0)
+info.Set(sddp.UPDATE_NUMBER_OF_GHOST_LEVELS(), 1)
+"""
 ISOVALUES = [130.0, 190.0]
 EXTENT = [-16, 16, -16, 16, -16, 16]
 
@@ -73,6 +81,8 @@ def main():
     results = {}
     failed = 0
     for name, props in CONFIGS.items():
+        props = dict(props)
+        ghosts = props.pop("ghosts", False)
         contour = pvs.PreciseContour(
             Input=wavelet,
             ContourBy=["POINTS", "RTData"],
@@ -81,6 +91,13 @@ def main():
             NumberOfThreads=1,
             **props,
         )
+        if ghosts:
+            contour = pvs.ProgrammableFilter(
+                Input=contour,
+                OutputDataSetType="vtkPolyData",
+                Script="self.GetOutput().ShallowCopy(self.GetInput())",
+                RequestUpdateExtentScript=ASK_FOR_GHOSTS,
+            )
         tagged = pvs.ProcessIdScalars(Input=contour)
         poly = servermanager.Fetch(tagged)
         tris, owner = canonical(poly)
