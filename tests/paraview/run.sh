@@ -3,7 +3,8 @@
 # its CMake package needs (scripts/lib.sh: ensure_paraview), builds the
 # plugin (build/paraview), loads it in pvbatch and pvpython (load.py), and
 # compares distributed runs under `mpiexec -n 2|3|4 pvbatch` with the serial
-# run, triangle for triangle (distributed.py). Closes with
+# run, triangle for triangle (distributed.py), and renders a 2-rank run
+# (paraview/screenshot.py). Closes with
 # "paraview: N passed, M failed"; exits non-zero on failure.
 set -uo pipefail
 cd "$(dirname "$0")/../.."
@@ -65,6 +66,10 @@ else
     echo "  [serial] FAILED; last lines of $out/serial.log:"
     tail -n 25 "$out/serial.log" | sed 's/^/    /'
 fi
+
+# A picture of a 2-rank run (as docs/paraview.png), rendered under Xvfb.
+run_checks screenshot xvfb-run -a mpiexec -n 2 --oversubscribe pvbatch paraview/screenshot.py \
+    "$PMC_PARAVIEW_PLUGIN" "$out/screenshot.png"
 
 echo "paraview tests took $((SECONDS - start)) s"
 echo "paraview: $passed passed, $failed failed"
