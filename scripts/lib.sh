@@ -96,7 +96,7 @@ ensure_paraview() {
     if [ "$(cat "$root/build/paraview-root/version" 2>/dev/null)" != "$version" ]; then
         [ "${PMC_SKIP_APT:-0}" != 1 ] || { echo "error: python3-paraview is not unpacked" >&2; return 1; }
         tmp="$(mktemp -d)"
-        chmod 755 "$tmp" # apt's download sandbox user must be able to write there
+        chmod 777 "$tmp" # apt downloads as its sandbox user (_apt)
         if ! (cd "$tmp" && apt-get download -qq "python3-paraview=$version" 2>/dev/null); then
             $sudo apt-get update -qq
             (cd "$tmp" && apt-get download -qq "python3-paraview=$version") || { rm -rf "$tmp"; return 1; }
