@@ -65,4 +65,7 @@ pub enum Error {
     /// A worker thread pool could not be created.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),
+    /// Invalid input to [`crate::accuracy::measure`] (the reason).
+    #[error("invalid mesh or settings for the distance measure: {0}")]
+    InvalidMeasure(&'static str),
 }

@@ -25,7 +25,7 @@ use crate::normals::compute_normals;
 use crate::options::Options;
 use crate::refine::{shared_fixed_axes, Counters, EdgeCache, Refinable, Refiner, Tri};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
-use crate::volume::{Grid, Samples, Scalar, Volume};
+use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
 
 /// A small multiplicative hasher for point keys (no DoS concern: keys are
@@ -94,18 +94,9 @@ pub fn extract_with_progress(
     if options.max_level > MAX_LEVEL_LIMIT {
         return Err(Error::InvalidMaxLevel(options.max_level));
     }
-    match volume.samples {
-        Samples::I8(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::U8(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::I16(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::U16(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::I32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::U32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::I64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::U64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::F32(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-        Samples::F64(s) => run(Grid::new(s, volume), volume, isovalue, options, progress),
-    }
+    crate::volume::with_grid!(volume, |grid| run(
+        grid, volume, isovalue, options, progress
+    ))
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -292,21 +283,30 @@ fn run_in_pool<T: Scalar>(
         // Too many triangles: count refinement trees per level, then redo
         // the pass at the highest level whose output fits the cap.
         drop(outs);
-        let counts = pass(max_level, Mode::Count, (0.3, 0.3))?;
-        let mut nodes = [0u64; 16];
-        let mut leaves = [0u64; 16];
-        for o in &counts {
-            for l in 0..16 {
-                nodes[l] += o.counters.nodes_per_level[l];
-                leaves[l] += o.counters.per_level[l];
-            }
-        }
-        let total_at = |l: usize| nodes[l] + leaves[..l].iter().sum::<u64>();
+        // Counting all the way to `max_level` can take a very long time
+        // when nearly every triangle splits (a tiny epsilon, max level 10):
+        // count level by level instead and stop at the first level that
+        // does not fit. The total at level l (nodes at l plus leaves above
+        // it) never decreases with l, and the counts up to level l do not
+        // depend on the deepest level counted, so the chosen level is the
+        // same, for at most a few times the cap in work.
         let mut chosen = 0;
-        for l in 0..=max_level as usize {
-            if total_at(l) <= user_cap {
-                chosen = l;
+        for l in 1..=max_level {
+            let w = 0.3 * (l - 1) as f64 / max_level as f64;
+            let counts = pass(l, Mode::Count, (0.3 + w, 0.3 / max_level as f64))?;
+            let mut nodes = [0u64; 16];
+            let mut leaves = [0u64; 16];
+            for o in &counts {
+                for q in 0..16 {
+                    nodes[q] += o.counters.nodes_per_level[q];
+                    leaves[q] += o.counters.per_level[q];
+                }
             }
+            let l = l as usize;
+            if nodes[l] + leaves[..l].iter().sum::<u64>() > user_cap {
+                break;
+            }
+            chosen = l;
         }
         max_level = chosen as u32;
         stats.budget_reached = true;
@@ -462,7 +462,13 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             let [a, b] = EDGES[e];
                             let (sa, sb) = (c[a as usize], c[b as usize]);
                             // vtkMarchingCubes: t from the lower corner.
-                            let t = (sh.iso - sa) / (sb - sa);
+                            let mut t = (sh.iso - sa) / (sb - sa);
+                            if !t.is_finite() {
+                                // The difference overflowed (samples near
+                                // +-f64::MAX): the same ratio of halves.
+                                t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa))
+                                    .clamp(0.0, 1.0);
+                            }
                             let ca = CORNERS[a as usize];
                             let mut g = [
                                 (cell_g[0] + ca[0] as i64) as f64,
@@ -591,6 +597,14 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     }
                 }
                 out.refine_time += tr.elapsed();
+                // One row of deeply refined cells can hold far more than
+                // the cap: check after every cell that emitted many.
+                if !count_only
+                    && out.tris.len() as u64 - reported >= 4096
+                    && report_emitted(sh, &out, &mut reported, cap)
+                {
+                    break 'layers;
+                }
             }
         }
         sh.layers_done.fetch_add(1, Ordering::Relaxed);
@@ -674,11 +688,16 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
             remap.push(id);
         }
         for (t, l) in o.tris.iter().zip(&o.levels) {
-            mesh.triangles.push([
-                remap[t[0] as usize],
-                remap[t[1] as usize],
-                remap[t[2] as usize],
-            ]);
+            let t = t.map(|v| remap[v as usize]);
+            // Extreme sample values can round an edge point onto a grid
+            // point that another point of the triangle already is (e.g. an
+            // edge from -8 to 1e308 crossed at 1): such a triangle has a
+            // repeated point, no area, and its edges cancel in pairs, so it
+            // is dropped without opening the surface.
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                continue;
+            }
+            mesh.triangles.push(t);
             mesh.levels.push(*l);
         }
         prev_plane = next_plane;

@@ -42,6 +42,7 @@ mod mesh;
 mod options;
 mod volume;
 
+pub mod accuracy;
 pub mod ffi;
 pub mod filter;
 pub mod mc;

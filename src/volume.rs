@@ -277,6 +277,59 @@ macro_rules! impl_scalar {
 impl_scalar!(i8: false, u8: false, i16: false, u16: false, i32: false, u32: false,
     i64: false, u64: false, f32: true, f64: true);
 
+/// Runs `$body` with `$g` bound to the volume's typed [`Grid`], whatever
+/// its scalar type (one monomorphised copy per type, no conversion copy).
+/// The volume must have been validated.
+macro_rules! with_grid {
+    ($volume:expr, |$g:ident| $body:expr) => {{
+        use $crate::volume::{Grid, Samples};
+        let v = $volume;
+        match v.samples {
+            Samples::I8(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::U8(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::I16(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::U16(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::I32(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::U32(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::I64(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::U64(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::F32(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+            Samples::F64(s) => {
+                let $g = Grid::new(s, v);
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_grid;
+
 /// Typed, validated read access to a volume (local indices).
 #[derive(Clone, Copy)]
 pub(crate) struct Grid<'a, T: Scalar> {

@@ -9,7 +9,8 @@ use super::status::PmcStatus;
 use super::volume::{core_volume, pmc_volume};
 use crate::Error;
 
-fn failure(e: Error) -> Failure {
+/// The C status and message of a core error.
+pub(super) fn failure(e: Error) -> Failure {
     let status = match e {
         Error::Aborted => PmcStatus::Aborted,
         Error::OutOfMemory(_) => PmcStatus::OutOfMemory,

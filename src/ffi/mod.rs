@@ -26,6 +26,7 @@
 mod enums;
 mod error;
 mod extract;
+mod measure;
 mod mesh;
 mod options;
 mod panic;
@@ -39,6 +40,7 @@ pub use enums::{
 };
 pub use error::pmc_last_error_message;
 pub use extract::pmc_extract;
+pub use measure::{pmc_distance, pmc_measure_distance};
 pub use mesh::{
     pmc_mesh, pmc_mesh_free, pmc_mesh_index_points, pmc_mesh_normals, pmc_mesh_point_count,
     pmc_mesh_points, pmc_mesh_stats, pmc_mesh_triangle_count, pmc_mesh_triangle_levels,

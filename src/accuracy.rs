@@ -1,0 +1,589 @@
+//! An independent accuracy measure: how far a triangle mesh lies from the
+//! isosurface `S_K` of the trilinear interpolant of a volume.
+//!
+//! The mesh is sampled densely (every vertex, points along every edge and
+//! inside every face, on a barycentric grid), and the distance of each
+//! sample to `S_K` is computed by a certified branch-and-bound search that
+//! shares nothing with the refinement's projection along gradient lines:
+//! boxes (cells, then octants of octants) are visited nearest first, and a
+//! box is kept only when the interpolant's values at its eight corners
+//! straddle the isovalue. A trilinear function is multilinear, so over any
+//! axis-aligned box its extreme values are at the box's corners: a box
+//! whose corners do not straddle the isovalue cannot meet `S_K`. Each box
+//! visited yields a point of `S_K` (an upper bound), the nearest box left
+//! a lower bound; the search ends when they agree to within `tolerance`
+//! plus `relative_tolerance` times the distance.
+//!
+//! Distances are in cell units (index space), like `epsilon`.
+//!
+//! ```
+//! use precisemc::{accuracy, extract, samples, Options};
+//! let tube = samples::tube(9);
+//! let volume = tube.volume();
+//! let opts = accuracy::MeasureOptions::default();
+//! let mc = extract(&volume, tube.isovalue, &Options::marching_cubes(Default::default())).unwrap();
+//! let refined = extract(&volume, tube.isovalue, &Options { epsilon: 0.001, ..Options::default() }).unwrap();
+//! let d_mc = accuracy::measure(&volume, tube.isovalue, &mc.index_points, &mc.triangles, &opts).unwrap();
+//! let d_ref = accuracy::measure(&volume, tube.isovalue, &refined.index_points, &refined.triangles, &opts).unwrap();
+//! assert!(d_ref.mean < d_mc.mean);
+//! ```
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::filter::trilinear_value;
+use crate::volume::{Grid, Scalar, Volume};
+use crate::Error;
+
+/// Settings of [`measure`].
+#[derive(Debug, Clone)]
+pub struct MeasureOptions {
+    /// Subdivisions of each triangle edge for the barycentric sample grid:
+    /// `(n + 1)(n + 2) / 2` samples per triangle. Default 4, at least 1.
+    pub density: u32,
+    /// Absolute tolerance of each distance, in cell units. Default 1e-5.
+    pub tolerance: f64,
+    /// Relative tolerance of each distance (a fraction of the distance).
+    /// Default 0.02: distances are certified to within
+    /// `tolerance + relative_tolerance * d`.
+    pub relative_tolerance: f64,
+    /// Worker threads; 0 = all cores. Default 0. The result does not
+    /// depend on it.
+    pub threads: usize,
+}
+
+impl Default for MeasureOptions {
+    fn default() -> Self {
+        MeasureOptions {
+            density: 4,
+            tolerance: 1e-5,
+            relative_tolerance: 0.02,
+            threads: 0,
+        }
+    }
+}
+
+/// Distance statistics of a mesh to `S_K`, in cell units.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Distance {
+    /// Largest distance of any sample.
+    pub max: f64,
+    /// Area-weighted mean distance.
+    pub mean: f64,
+    /// Area-weighted root mean square distance.
+    pub rms: f64,
+    /// Number of samples measured.
+    pub samples: u64,
+    /// Samples with no point of `S_K` anywhere in the volume (left out of
+    /// the statistics).
+    pub unresolved: u64,
+}
+
+/// Measures the distance of the mesh `(points, triangles)` to the
+/// isosurface `isovalue` of the trilinear interpolant of `volume`.
+///
+/// `points` are in the volume's global index space (as
+/// [`crate::Mesh::index_points`]: sample `(i, j, k)` of the buffer is at
+/// `index_offset + (i, j, k)`). Triangles index `points`. Errors: invalid
+/// volume, non-finite isovalue or points, triangle indices out of range,
+/// `density == 0`, tolerance not positive.
+pub fn measure(
+    volume: &Volume<'_>,
+    isovalue: f64,
+    points: &[[f64; 3]],
+    triangles: &[[u64; 3]],
+    options: &MeasureOptions,
+) -> Result<Distance, Error> {
+    volume.validate()?;
+    if !isovalue.is_finite() {
+        return Err(Error::InvalidIsovalue(isovalue));
+    }
+    if options.density == 0 || options.density > 1024 {
+        return Err(Error::InvalidMeasure("density must be in 1..=1024"));
+    }
+    if !(options.tolerance.is_finite() && options.tolerance > 0.0) {
+        return Err(Error::InvalidMeasure("tolerance must be positive"));
+    }
+    if !(options.relative_tolerance.is_finite() && (0.0..1.0).contains(&options.relative_tolerance))
+    {
+        return Err(Error::InvalidMeasure(
+            "relative tolerance must be in [0, 1)",
+        ));
+    }
+    if points.iter().flatten().any(|c| !c.is_finite()) {
+        return Err(Error::InvalidMeasure("points must be finite"));
+    }
+    if triangles
+        .iter()
+        .flatten()
+        .any(|&v| v >= points.len() as u64)
+    {
+        return Err(Error::InvalidMeasure("triangle index out of range"));
+    }
+    let threads = if options.threads == 0 {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    } else {
+        options.threads.min(crate::MAX_THREADS)
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::ThreadPool(e.to_string()))?;
+    let off = volume.index_offset.map(|o| o as f64);
+    let local: Vec<DVec3> = points
+        .iter()
+        .map(|p| DVec3::new(p[0] - off[0], p[1] - off[1], p[2] - off[2]))
+        .collect();
+    Ok(crate::volume::with_grid!(volume, |grid| pool.install(
+        || { measure_grid(grid, isovalue, &local, triangles, options) }
+    )))
+}
+
+/// Per-triangle partial sums, combined in triangle order (deterministic).
+#[derive(Default, Clone, Copy)]
+struct Sums {
+    max: f64,
+    weighted: f64,
+    weighted_sq: f64,
+    weight: f64,
+    samples: u64,
+    unresolved: u64,
+}
+
+fn measure_grid<T: Scalar>(
+    grid: Grid<'_, T>,
+    iso: f64,
+    points: &[DVec3],
+    triangles: &[[u64; 3]],
+    options: &MeasureOptions,
+) -> Distance {
+    let n = options.density as usize;
+    let per_tri = (n + 1) * (n + 2) / 2;
+    // Fixed-size chunks summed in order: the result does not depend on
+    // the thread count.
+    let sums: Vec<Sums> = triangles
+        .par_chunks(256)
+        .map(|chunk| {
+            let mut s = Sums::default();
+            for t in chunk {
+                let [a, b, c] = t.map(|v| points[v as usize]);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                let w = area / per_tri as f64;
+                for i in 0..=n {
+                    for j in 0..=n - i {
+                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                        let p = a + (b - a) * u + (c - a) * v;
+                        match distance(&grid, iso, p, options.tolerance, options.relative_tolerance)
+                        {
+                            Some(d) => {
+                                s.max = s.max.max(d);
+                                s.weighted += w * d;
+                                s.weighted_sq += w * d * d;
+                                s.samples += 1;
+                            }
+                            None => s.unresolved += 1,
+                        }
+                    }
+                }
+                s.weight += area;
+            }
+            s
+        })
+        .collect();
+    let mut total = Sums::default();
+    for s in sums {
+        total.max = total.max.max(s.max);
+        total.weighted += s.weighted;
+        total.weighted_sq += s.weighted_sq;
+        total.weight += s.weight;
+        total.samples += s.samples;
+        total.unresolved += s.unresolved;
+    }
+    let (mean, rms) = if total.weight > 0.0 {
+        (
+            total.weighted / total.weight,
+            (total.weighted_sq / total.weight).sqrt(),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    Distance {
+        max: total.max,
+        mean,
+        rms,
+        samples: total.samples,
+        unresolved: total.unresolved,
+    }
+}
+
+/// A box of the search: lower bound of the distance, origin (local grid
+/// coordinates), edge length, and the interpolant minus the isovalue at
+/// its corners (VTK corner order).
+struct Candidate {
+    lower: f64,
+    lo: DVec3,
+    size: f64,
+    f: [f64; 8],
+}
+
+impl PartialEq for Candidate {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Candidate {}
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Nearest first in a max-heap; ties broken by position so the
+        // search order is fully determined.
+        other
+            .lower
+            .total_cmp(&self.lower)
+            .then_with(|| other.size.total_cmp(&self.size))
+            .then_with(|| other.lo.x.total_cmp(&self.lo.x))
+            .then_with(|| other.lo.y.total_cmp(&self.lo.y))
+            .then_with(|| other.lo.z.total_cmp(&self.lo.z))
+    }
+}
+
+/// Local offsets of the VTK corners.
+const CORNER_OFFSETS: [[f64; 3]; 8] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [1.0, 1.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [0.0, 1.0, 1.0],
+];
+
+fn straddles(f: &[f64; 8]) -> bool {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &v in f {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    lo <= 0.0 && hi >= 0.0
+}
+
+/// Distance from `p` to the box `[lo, lo + size]^3`.
+fn box_distance(p: DVec3, lo: DVec3, size: f64) -> f64 {
+    let hi = lo + DVec3::splat(size);
+    let d = (lo - p).max(p - hi).max(DVec3::ZERO);
+    d.length()
+}
+
+/// The tolerance allowed for a distance near `d`.
+fn allowed(d: f64, tolerance: f64, relative: f64) -> f64 {
+    tolerance + relative * d
+}
+
+/// The interpolant of a box about its centre, in box units
+/// (`x = (point - lo) / size - 0.5`, each in `[-0.5, 0.5]`): value and
+/// gradient at the centre, and a bound on `|F - linear part|` over the box.
+struct Linearised {
+    value: f64,
+    gradient: DVec3,
+    remainder: f64,
+}
+
+fn linearise(f: &[f64; 8]) -> Linearised {
+    // Corner (x, y, z) in {0, 1}^3 of the VTK order.
+    let at = |x: usize, y: usize, z: usize| -> f64 {
+        const INDEX: [[[usize; 2]; 2]; 2] = [[[0, 4], [3, 7]], [[1, 5], [2, 6]]];
+        f[INDEX[x][y][z]]
+    };
+    let mut value = 0.0;
+    for v in f {
+        value += v * 0.125;
+    }
+    let mut g = DVec3::ZERO;
+    let (mut xy, mut xz, mut yz, mut xyz) = (0.0, 0.0, 0.0, 0.0);
+    for x in 0..2 {
+        for y in 0..2 {
+            for z in 0..2 {
+                let v = at(x, y, z);
+                let sx = if x == 1 { 1.0 } else { -1.0 };
+                let sy = if y == 1 { 1.0 } else { -1.0 };
+                let sz = if z == 1 { 1.0 } else { -1.0 };
+                g += DVec3::new(sx, sy, sz) * (v * 0.25);
+                xy += sx * sy * v * 0.5;
+                xz += sx * sz * v * 0.5;
+                yz += sy * sz * v * 0.5;
+                xyz += sx * sy * sz * v;
+            }
+        }
+    }
+    // The centred form is value + g.x + xy x y + xz x z + yz y z + xyz x y z,
+    // and |x|, |y|, |z| <= 1/2 in the box.
+    Linearised {
+        value,
+        gradient: g,
+        remainder: (xy.abs() + xz.abs() + yz.abs()) * 0.25 + xyz.abs() * 0.125,
+    }
+}
+
+/// A lower bound of the distance from `p` to `S_K` inside box `c`:
+/// `S_K` lies in the box and in the slab where the linear part is within
+/// the remainder bound of zero.
+fn lower_bound(p: DVec3, lo: DVec3, size: f64, lin: &Linearised) -> f64 {
+    let boxed = box_distance(p, lo, size);
+    let len = lin.gradient.length();
+    if len.is_nan() || len <= 0.0 {
+        return boxed;
+    }
+    let x = (p - lo) / size - DVec3::splat(0.5);
+    let l = lin.value + lin.gradient.dot(x);
+    let slab = (l.abs() - lin.remainder).max(0.0) / len * size;
+    boxed.max(slab)
+}
+
+/// A point of `S_K` in box `c` near `p`: along the gradient line of the
+/// linear part through the foot of `p` on its zero plane (clamped into the
+/// box), else on a box edge whose ends differ in sign; found by bisection.
+fn surface_point(c: &Candidate, lin: &Linearised, p: DVec3) -> Option<DVec3> {
+    use crate::tables::cube::EDGES;
+    let local = |q: DVec3| c.lo + (q + DVec3::splat(0.5)) * c.size;
+    let eval = |q: DVec3| trilinear_value(&c.f, q + DVec3::splat(0.5));
+    let bisect = |a: DVec3, b: DVec3, fa: f64| -> DVec3 {
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for _ in 0..48 {
+            let m = 0.5 * (lo + hi);
+            if (eval(a + (b - a) * m) > 0.0) == (fa > 0.0) {
+                lo = m;
+            } else {
+                hi = m;
+            }
+        }
+        a + (b - a) * (0.5 * (lo + hi))
+    };
+    let len2 = lin.gradient.length_squared();
+    if len2 > 0.0 {
+        let x = (p - c.lo) / c.size - DVec3::splat(0.5);
+        let foot = (x - lin.gradient * ((lin.value + lin.gradient.dot(x)) / len2))
+            .clamp(DVec3::splat(-0.5), DVec3::splat(0.5));
+        let d = lin.gradient / len2.sqrt();
+        // Clip the line foot + t d to the box.
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            if d[a] != 0.0 {
+                let (u, v) = ((-0.5 - foot[a]) / d[a], (0.5 - foot[a]) / d[a]);
+                t0 = t0.max(u.min(v));
+                t1 = t1.min(u.max(v));
+            }
+        }
+        if t0 <= t1 {
+            let fc = eval(foot);
+            if fc == 0.0 {
+                return Some(local(foot));
+            }
+            // Towards the side of opposite sign.
+            let t = if fc > 0.0 { t0 } else { t1 };
+            let end = foot + d * t;
+            let fe = eval(end);
+            if (fe > 0.0) != (fc > 0.0) || fe == 0.0 {
+                return Some(local(bisect(foot, end, fc)));
+            }
+        }
+    }
+    for (k, v) in c.f.iter().enumerate() {
+        if *v == 0.0 {
+            return Some(c.lo + DVec3::from_array(CORNER_OFFSETS[k]) * c.size);
+        }
+    }
+    let [a, b] = EDGES
+        .iter()
+        .find(|[a, b]| (c.f[*a as usize] > 0.0) != (c.f[*b as usize] > 0.0))?;
+    let half = DVec3::splat(0.5);
+    let (pa, pb) = (
+        DVec3::from_array(CORNER_OFFSETS[*a as usize]) - half,
+        DVec3::from_array(CORNER_OFFSETS[*b as usize]) - half,
+    );
+    Some(local(bisect(pa, pb, c.f[*a as usize])))
+}
+
+/// Distance from `p` (local grid coordinates) to `S_K`, or `None` when
+/// `S_K` is empty.
+///
+/// Boxes are visited nearest first; each gives a point of `S_K` (an upper
+/// bound on the distance), and the nearest box left gives a lower bound.
+/// The search stops when the two agree within the tolerance, or a box is
+/// small enough to decide alone. It starts with the cells within one cell
+/// of `p` and doubles that radius while no surface is found.
+fn distance<T: Scalar>(
+    grid: &Grid<'_, T>,
+    iso: f64,
+    p: DVec3,
+    tolerance: f64,
+    relative: f64,
+) -> Option<f64> {
+    let cells = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
+    let extent = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64);
+    // Farthest any point of the volume can be from p.
+    let reach = (p.abs() + extent + DVec3::ONE).length();
+    let mut radius = 1.0f64;
+    let mut upper = f64::INFINITY;
+    let mut heap = BinaryHeap::new();
+    loop {
+        heap.clear();
+        // Cells meeting the box [p - radius, p + radius].
+        let mut first = [0usize; 3];
+        let mut last = [0usize; 3];
+        let mut empty = false;
+        for a in 0..3 {
+            let lo = (p[a] - radius).floor().max(0.0);
+            let hi = (p[a] + radius).floor().min(cells[a] as f64 - 1.0);
+            if hi < lo {
+                empty = true;
+            } else {
+                first[a] = lo as usize;
+                last[a] = hi as usize;
+            }
+        }
+        if !empty {
+            for k in first[2]..=last[2] {
+                for j in first[1]..=last[1] {
+                    for i in first[0]..=last[0] {
+                        let lo = DVec3::new(i as f64, j as f64, k as f64);
+                        if box_distance(p, lo, 1.0) > radius {
+                            continue;
+                        }
+                        let mut f = [0.0; 8];
+                        for (c, o) in CORNER_OFFSETS.iter().enumerate() {
+                            let [x, y, z] = o.map(|v| v as usize);
+                            f[c] = grid.get(i + x, j + y, k + z) - iso;
+                        }
+                        if !(f.iter().all(|v| v.is_finite()) && straddles(&f)) {
+                            continue;
+                        }
+                        let lower = lower_bound(p, lo, 1.0, &linearise(&f));
+                        if lower < upper {
+                            heap.push(Candidate {
+                                lower,
+                                lo,
+                                size: 1.0,
+                                f,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+        while let Some(c) = heap.pop() {
+            if c.lower >= upper - allowed(upper, tolerance, relative) {
+                // Every box left is at least this far: upper is certified.
+                return Some(upper);
+            }
+            if c.lower > radius && upper > radius {
+                // A nearer surface may lie in cells beyond the radius.
+                break;
+            }
+            let lin = linearise(&c.f);
+            if let Some(q) = surface_point(&c, &lin, p) {
+                upper = upper.min((q - p).length());
+            }
+            let half_diag = 0.5 * c.size * 3f64.sqrt();
+            if half_diag <= 0.5 * allowed(c.lower, tolerance, relative) {
+                return Some(upper.min(c.lower + 2.0 * half_diag));
+            }
+            // The interpolant on the 3x3x3 lattice of the octants.
+            let h = 0.5 * c.size;
+            let mut lattice = [0.0f64; 27];
+            for z in 0..3 {
+                for y in 0..3 {
+                    for x in 0..3 {
+                        let local = DVec3::new(x as f64, y as f64, z as f64) * 0.5;
+                        lattice[x + 3 * (y + 3 * z)] = trilinear_value(&c.f, local);
+                    }
+                }
+            }
+            for o in CORNER_OFFSETS {
+                let lo = c.lo + DVec3::from_array(o) * h;
+                if box_distance(p, lo, h) >= upper {
+                    continue;
+                }
+                let mut f = [0.0; 8];
+                for (q, oo) in CORNER_OFFSETS.iter().enumerate() {
+                    let [x, y, z] = [0, 1, 2].map(|a| (o[a] + oo[a]) as usize);
+                    f[q] = lattice[x + 3 * (y + 3 * z)];
+                }
+                if !straddles(&f) {
+                    continue;
+                }
+                let lower = lower_bound(p, lo, h, &linearise(&f));
+                if lower < upper {
+                    heap.push(Candidate {
+                        lower,
+                        lo,
+                        size: h,
+                        f,
+                    });
+                }
+            }
+        }
+        if upper <= radius {
+            // Every box within the radius is decided.
+            return Some(upper);
+        }
+        if radius >= reach {
+            return upper.is_finite().then_some(upper);
+        }
+        radius *= 2.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A plane `x = 0.3 + 2` in a 5^3 volume: the distance of any point is
+    /// `|x - 2.3|`.
+    #[test]
+    fn distance_to_a_plane_is_exact_within_tolerance() {
+        let n = 5u64;
+        let mut data = Vec::new();
+        for _k in 0..n {
+            for _j in 0..n {
+                for i in 0..n {
+                    data.push(i as f64 - 2.3);
+                }
+            }
+        }
+        let v = Volume::new(data.as_slice(), [n, n, n]);
+        with_grid_test(&v, |grid| {
+            for x in [0.0, 0.5, 1.7, 2.3, 2.31, 3.9, 4.0] {
+                let d = distance(&grid, 0.0, DVec3::new(x, 1.3, 2.2), 1e-6, 0.001).unwrap();
+                let want = (x - 2.3f64).abs();
+                assert!(
+                    (d - want).abs() <= 1e-6 + 0.001 * want,
+                    "x {x}: {d} vs {want}"
+                );
+            }
+        });
+    }
+
+    fn with_grid_test(v: &Volume<'_>, f: impl Fn(Grid<'_, f64>)) {
+        v.validate().unwrap();
+        if let crate::Samples::F64(s) = v.samples {
+            f(Grid::new(s, v));
+        }
+    }
+
+    #[test]
+    fn no_surface_gives_unresolved() {
+        let data = vec![1.0f64; 8];
+        let v = Volume::new(data.as_slice(), [2, 2, 2]);
+        with_grid_test(&v, |grid| {
+            assert_eq!(distance(&grid, 5.0, DVec3::splat(0.5), 1e-5, 0.0), None);
+        });
+    }
+}

@@ -1,0 +1,320 @@
+//! The accuracy measure (`precisemc::accuracy`): exact on fields whose
+//! isosurface is known, consistent with a dense reference of `S_K` on
+//! random fields, independent of threads, and telling refined meshes from
+//! Marching Cubes.
+
+mod common;
+
+use common::*;
+use precisemc::accuracy::{measure, Distance, MeasureOptions};
+use precisemc::ffi::{pmc_distance, pmc_measure_distance, pmc_volume, PmcStatus};
+use precisemc::{extract, Error, Options, Rule, Topology, Volume};
+
+/// The distance of the single point `p` (a triangle collapsed onto it).
+fn point_distance(vol: &Volume<'_>, iso: f64, p: [f64; 3], opts: &MeasureOptions) -> f64 {
+    let d = measure(vol, iso, &[p], &[[0, 0, 0]], opts).unwrap();
+    assert_eq!(d.unresolved, 0);
+    d.max
+}
+
+fn tight() -> MeasureOptions {
+    MeasureOptions {
+        tolerance: 1e-7,
+        relative_tolerance: 1e-4,
+        ..MeasureOptions::default()
+    }
+}
+
+/// A linear field is reproduced exactly by the trilinear filter: `S_K` is
+/// the plane, and every distance is known in closed form.
+#[test]
+fn linear_fields_give_plane_distances() {
+    let dims = [7, 6, 8];
+    let n = [0.36f64, -0.48, 0.8]; // unit normal
+    let values = grid_fn(dims, |x, y, z| n[0] * x + n[1] * y + n[2] * z);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let iso = 2.05;
+    let mut rng = Rng::new(7);
+    for _ in 0..200 {
+        let p = [
+            rng.range(0.0, 6.0),
+            rng.range(0.0, 5.0),
+            rng.range(0.0, 7.0),
+        ];
+        let want = (n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - iso).abs();
+        // The plane leaves the volume: where its nearest point is outside,
+        // the distance is larger; only check points whose foot is inside.
+        let foot = [0, 1, 2].map(|a| p[a] - n[a] * (n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - iso));
+        if !(0..3).all(|a| foot[a] >= 0.0 && foot[a] <= (dims[a] - 1) as f64) {
+            continue;
+        }
+        let d = point_distance(&vol, iso, p, &tight());
+        assert!(
+            (d - want).abs() <= 1e-6 + 2e-4 * want,
+            "{p:?}: measured {d}, exact {want}"
+        );
+    }
+}
+
+/// Points of `S_K` on a dense lattice: crossings of the trilinear
+/// interpolant along lattice edges (`per_cell` per cell edge), found by
+/// bisection on the interpolant itself, so each lies on `S_K`.
+fn reference_points(values: &[f64], dims: [usize; 3], iso: f64, per_cell: usize) -> Vec<[f64; 3]> {
+    let h = 1.0 / per_cell as f64;
+    let n = [0, 1, 2].map(|a| (dims[a] - 1) * per_cell + 1);
+    let value = |p: [f64; 3]| volume_value(values, dims, p) - iso;
+    let mut out = Vec::new();
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let p = [i as f64 * h, j as f64 * h, k as f64 * h];
+                let fp = value(p);
+                for a in 0..3 {
+                    let mut q = p;
+                    q[a] += h;
+                    if q[a] > (dims[a] - 1) as f64 {
+                        continue;
+                    }
+                    let fq = value(q);
+                    if (fp >= 0.0) != (fq >= 0.0) {
+                        let (mut lo, mut hi) = (0.0, 1.0);
+                        for _ in 0..50 {
+                            let m = 0.5 * (lo + hi);
+                            let mut r = p;
+                            r[a] += h * m;
+                            if (value(r) >= 0.0) == (fp >= 0.0) {
+                                lo = m;
+                            } else {
+                                hi = m;
+                            }
+                        }
+                        let mut r = p;
+                        r[a] += h * 0.5 * (lo + hi);
+                        out.push(r);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// On random smooth and rough fields, each measured distance lies between
+/// the distance to the dense reference points minus the lattice diagonal
+/// (any point of `S_K` is that close to a reference point) and that
+/// distance itself (reference points lie on `S_K`), within the tolerance.
+#[test]
+fn distances_agree_with_a_dense_reference() {
+    let per_cell = 8;
+    let h = 3f64.sqrt() / per_cell as f64;
+    let opts = MeasureOptions {
+        tolerance: 1e-6,
+        relative_tolerance: 1e-3,
+        ..MeasureOptions::default()
+    };
+    let fields = [
+        ("blobs", [7, 7, 7], blobs([7, 7, 7], 3, 4)),
+        (
+            "random",
+            [6, 6, 6],
+            random_interior([6, 6, 6], 11, -1.0, 1.0, -1.0),
+        ),
+    ];
+    let mut checked = 0;
+    for (name, dims, values) in &fields {
+        let reference = reference_points(values, *dims, 0.0, per_cell);
+        assert!(!reference.is_empty());
+        let vol = Volume::new(values, dims_u64(*dims));
+        let mut rng = Rng::new(5);
+        for _ in 0..60 {
+            let p = [0, 1, 2].map(|a| rng.range(0.5, (dims[a] - 1) as f64 - 0.5));
+            let r = reference
+                .iter()
+                .map(|q| dist(p, *q))
+                .fold(f64::INFINITY, f64::min);
+            let d = point_distance(&vol, 0.0, p, &opts);
+            let slack = 1e-6 + 1e-3 * r;
+            assert!(
+                d <= r + slack && d >= r - h - slack,
+                "{name} {p:?}: measured {d}, reference {r} (lattice {h})"
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 120);
+}
+
+/// The statistics do not depend on the thread count, bit for bit.
+#[test]
+fn result_is_independent_of_threads() {
+    let dims = [12, 12, 12];
+    let values = blobs(dims, 9, 8);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let mesh = extract(&vol, 0.0, &mc_opts(Topology::Trilinear)).unwrap();
+    let run = |threads| {
+        measure(
+            &vol,
+            0.0,
+            &mesh.index_points,
+            &mesh.triangles,
+            &MeasureOptions {
+                threads,
+                ..MeasureOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let one: Distance = run(1);
+    assert!(one.samples > 1000);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+}
+
+/// Refinement brings the surface closer to `S_K` as epsilon shrinks, and
+/// Marching Cubes is far from it on a thin-featured field.
+#[test]
+fn refinement_shrinks_the_measured_distance() {
+    let dims = [12, 12, 12];
+    let values = blobs(dims, 4, 10);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let opts = MeasureOptions::default();
+    let mc = extract(&vol, 0.0, &mc_opts(Topology::Trilinear)).unwrap();
+    let d_mc = measure(&vol, 0.0, &mc.index_points, &mc.triangles, &opts).unwrap();
+    let mut previous = d_mc.mean;
+    for eps in [0.02, 0.005, 0.001] {
+        let m = extract(
+            &vol,
+            0.0,
+            &refine_opts(Topology::Trilinear, Rule::A1, eps, 6),
+        )
+        .unwrap();
+        let d = measure(&vol, 0.0, &m.index_points, &m.triangles, &opts).unwrap();
+        assert!(
+            d.mean < previous,
+            "eps {eps}: mean {} not below {previous}",
+            d.mean
+        );
+        assert!(d.rms <= d.max && d.mean <= d.rms);
+        previous = d.mean;
+    }
+    assert!(previous < 0.1 * d_mc.mean, "{previous} vs MC {}", d_mc.mean);
+}
+
+#[test]
+fn invalid_input_is_an_error() {
+    let values = vec![0.0f64; 8];
+    let vol = Volume::new(&values, [2, 2, 2]);
+    let o = MeasureOptions::default();
+    let p = [[0.5, 0.5, 0.5]];
+    assert!(matches!(
+        measure(&vol, f64::NAN, &p, &[[0, 0, 0]], &o),
+        Err(Error::InvalidIsovalue(_))
+    ));
+    assert!(matches!(
+        measure(&vol, 0.0, &p, &[[0, 0, 1]], &o),
+        Err(Error::InvalidMeasure(_))
+    ));
+    assert!(matches!(
+        measure(&vol, 0.0, &[[f64::NAN, 0.0, 0.0]], &[], &o),
+        Err(Error::InvalidMeasure(_))
+    ));
+    for bad in [
+        MeasureOptions {
+            density: 0,
+            ..o.clone()
+        },
+        MeasureOptions {
+            tolerance: 0.0,
+            ..o.clone()
+        },
+        MeasureOptions {
+            relative_tolerance: -1.0,
+            ..o.clone()
+        },
+    ] {
+        assert!(matches!(
+            measure(&vol, 0.0, &p, &[[0, 0, 0]], &bad),
+            Err(Error::InvalidMeasure(_))
+        ));
+    }
+    // No surface at all: the sample is unresolved, not an error.
+    let d = measure(&vol, 5.0, &p, &[[0, 0, 0]], &o).unwrap();
+    assert_eq!((d.samples, d.unresolved), (0, 15));
+}
+
+/// The C entry point gives the Rust result for a mesh in world
+/// coordinates, and rejects bad arguments with the documented statuses.
+#[test]
+fn c_api_matches_rust() {
+    let dims = [10, 9, 8];
+    let values = blobs(dims, 2, 6);
+    let spacing = [0.5, 2.0, 1.5];
+    let origin = [-3.0, 1.0, 7.0];
+    let vol = Volume::new(&values, dims_u64(dims))
+        .with_spacing(spacing)
+        .with_origin(origin);
+    let mesh = extract(&vol, 0.0, &Options::default()).unwrap();
+    let want = measure(
+        &vol,
+        0.0,
+        &mesh.index_points,
+        &mesh.triangles,
+        &MeasureOptions::default(),
+    )
+    .unwrap();
+    let cv = pmc_volume {
+        data: values.as_ptr().cast(),
+        len: values.len() as u64,
+        scalar_type: 9,
+        dims: dims_u64(dims),
+        strides: [0; 3],
+        origin,
+        spacing,
+    };
+    let pts: Vec<f64> = mesh.points.iter().flatten().copied().collect();
+    let tris: Vec<i64> = mesh.triangles.iter().flatten().map(|&v| v as i64).collect();
+    let mut out = pmc_distance::default();
+    let call = |v: *const pmc_volume, p: *const f64, t: *const i64, o: *mut pmc_distance| unsafe {
+        pmc_measure_distance(
+            v,
+            0.0,
+            p,
+            mesh.points.len() as u64,
+            t,
+            mesh.triangles.len() as u64,
+            0,
+            o,
+        )
+    };
+    assert_eq!(
+        call(&cv, pts.as_ptr(), tris.as_ptr(), &mut out),
+        PmcStatus::Ok
+    );
+    assert_eq!(out.samples, want.samples);
+    assert!((out.max - want.max).abs() <= 1e-9 * (1.0 + want.max));
+    assert!((out.mean - want.mean).abs() <= 1e-9 * (1.0 + want.mean));
+    assert_eq!(
+        call(std::ptr::null(), pts.as_ptr(), tris.as_ptr(), &mut out),
+        PmcStatus::NullArgument
+    );
+    assert_eq!(
+        call(&cv, std::ptr::null(), tris.as_ptr(), &mut out),
+        PmcStatus::NullArgument
+    );
+    assert_eq!(
+        call(&cv, pts.as_ptr(), tris.as_ptr(), std::ptr::null_mut()),
+        PmcStatus::NullArgument
+    );
+    let mut bad = tris.clone();
+    bad[4] = -1;
+    assert_eq!(
+        call(&cv, pts.as_ptr(), bad.as_ptr(), &mut out),
+        PmcStatus::InvalidArgument
+    );
+    bad[4] = mesh.points.len() as i64;
+    assert_eq!(
+        call(&cv, pts.as_ptr(), bad.as_ptr(), &mut out),
+        PmcStatus::InvalidArgument
+    );
+    assert_eq!(out, pmc_distance::default(), "zeroed on failure");
+}
