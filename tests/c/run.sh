@@ -82,10 +82,10 @@ INC=(-I"$ROOT/include" -I"$ROOT/tests/c")
 # The native libraries of the Rust static library (cargo rustc -- --print
 # native-static-libs), as in cmake/PreciseMCCargo.cmake.
 NATIVE=(-lgcc_s -lutil -lrt -lpthread -lm -ldl)
-SHARED=(-L"$LIB_DIR" -lprecisemc -Wl,-rpath,"$LIB_DIR" -lm)
-STATIC=("$LIB_DIR/libprecisemc.a" "${NATIVE[@]}")
+SHARED=(-L"$LIB_DIR" -lprecisemc -Wl,-rpath,"$LIB_DIR" -lm -pthread)
+STATIC=("$LIB_DIR/libprecisemc.a" "${NATIVE[@]}" -pthread)
 SAN=(-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
-PROGRAMS=(test_extract test_errors test_progress test_random)
+PROGRAMS=(test_extract test_errors test_progress test_random test_robust)
 
 build() { # build OUTPUT COMPILER FLAGS... (compile errors are test failures)
     local out=$1
