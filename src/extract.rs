@@ -311,6 +311,16 @@ fn run_in_pool<T: Scalar>(
         max_level = chosen as u32;
         stats.budget_reached = true;
         outs = pass(max_level, Mode::Output { cap: u64::MAX }, (0.6, 0.35))?;
+        // The count is exact in the usual case, but near ties welding can
+        // make the output differ a little; the cap is a promise, so step
+        // down while the output does not fit (level 0 is plain Marching
+        // Cubes, kept whatever its size).
+        let emitted = |outs: &Vec<SlabOut>| outs.iter().map(|o| o.tris.len() as u64).sum::<u64>();
+        while max_level > 0 && emitted(&outs) > user_cap {
+            max_level -= 1;
+            drop(outs);
+            outs = pass(max_level, Mode::Output { cap: u64::MAX }, (0.9, 0.05))?;
+        }
     }
     stats.effective_max_level = max_level;
 

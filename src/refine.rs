@@ -61,10 +61,17 @@ impl Refinable {
         for (axis, side, c) in FACES {
             let g = c.map(|k| f[k as usize]);
             // A sample at the isovalue, or an ambiguous face whose diagonal
-            // products agree (its saddle is at the isovalue).
+            // products agree (its saddle is at the isovalue), to within a
+            // relative 1e-10: closer than that, the crossing lies within
+            // rounding of the grid point (or the saddle's branches touch)
+            // in global index coordinates, and behaves as an exact tie.
+            const TIE: f64 = 1e-10;
+            let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let s = g.map(|v| v > 0.0);
             let ambiguous = s[0] == s[2] && s[1] == s[3] && s[0] != s[1];
-            let tie = g.contains(&0.0) || (ambiguous && g[0] * g[2] == g[1] * g[3]);
+            let (d0, d1) = (g[0] * g[2], g[1] * g[3]);
+            let tie = g.iter().any(|v| v.abs() <= TIE * scale)
+                || (ambiguous && (d0 - d1).abs() <= TIE * d0.abs().max(d1.abs()));
             if !tie {
                 faces |= 1 << (2 * axis + side);
             }
