@@ -27,6 +27,9 @@ struct Options
   std::string Compare;  // --compare PNG
   std::string Distance; // --distance PNG
 
+  bool Measure = false;     // --measure: distances to S_K in the table
+  int MeasureDensity = -1;  // --measure-density; -1 = not given (3)
+
   bool Quiet = false;
   bool Help = false;
   bool Version = false;

@@ -288,8 +288,14 @@ bool ShowEdges(vtkIdType triangles, int width, int height)
 vtkSmartPointer<vtkPolyData> RunMarchingCubes(
   vtkImageData* volume, const std::vector<double>& values)
 {
+  // Some VTK versions apply the direction matrix in vtkMarchingCubes (9.1
+  // does), others not: contour an axis-aligned copy and apply the matrix
+  // here, like the PreciseMC filter does, so that it is applied once.
+  vtkNew<vtkImageData> aligned;
+  aligned->ShallowCopy(volume);
+  aligned->SetDirectionMatrix(1, 0, 0, 0, 1, 0, 0, 0, 1);
   vtkNew<vtkMarchingCubes> mc;
-  mc->SetInputData(volume);
+  mc->SetInputData(aligned);
   for (size_t i = 0; i < values.size(); ++i)
   {
     mc->SetValue(static_cast<int>(i), values[i]);
@@ -301,8 +307,7 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
   auto out = vtkSmartPointer<vtkPolyData>::New();
   out->ShallowCopy(mc->GetOutput());
 
-  // vtkMarchingCubes ignores the direction matrix: apply it like the
-  // PreciseMC filter does (p' = origin + D (p - origin)).
+  // p' = origin + D (p - origin).
   vtkMatrix3x3* d = volume->GetDirectionMatrix();
   if (!d->IsIdentity())
   {

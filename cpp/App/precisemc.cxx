@@ -8,6 +8,7 @@
 #include "Common.h"
 #include "Display.h"
 #include "IO.h"
+#include "Measure.h"
 #include "Options.h"
 #include "Render.h"
 #include "Samples.h"
@@ -320,12 +321,31 @@ int main(int argc, char* argv[])
       panel.Refined->ShallowCopy(filter->GetOutput());
       panel.RefinedLabel = refinedLabel;
 
-      double mcSeconds = 0.0, distanceSeconds = 0.0, writeSeconds = 0.0;
-      if (pictures)
+      double mcSeconds = 0.0, distanceSeconds = 0.0, writeSeconds = 0.0, measureSeconds = 0.0;
+      if (pictures || o.Measure)
       {
         start = Clock::now();
         panel.MC = pmcapp::RunMarchingCubes(d.Volume, d.Values);
         mcSeconds = SecondsSince(start);
+      }
+      // --measure: one isovalue at a time (vtkMarchingCubes is rerun on its
+      // own for each value when there are several; PreciseMC's appended
+      // surfaces are told apart by their point scalars, the isovalue).
+      std::vector<pmcapp::Distance> mcDistances, refinedDistances;
+      if (o.Measure)
+      {
+        start = Clock::now();
+        const unsigned density = static_cast<unsigned>(o.MeasureDensity < 0 ? 3 : o.MeasureDensity);
+        for (double v : d.Values)
+        {
+          vtkSmartPointer<vtkPolyData> mcSurface = d.Values.size() > 1
+            ? pmcapp::RunMarchingCubes(d.Volume, std::vector<double>{ v })
+            : panel.MC;
+          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density, false));
+          refinedDistances.push_back(pmcapp::MeasureDistance(
+            d.Volume, v, panel.Refined, density, d.Values.size() > 1));
+        }
+        measureSeconds = SecondsSince(start);
       }
       if (!o.Distance.empty())
       {
@@ -384,11 +404,31 @@ int main(int argc, char* argv[])
           table << Row("MC to refined", "max " + pmcapp::Fixed(panel.MaxDistance, 3) + ", mean " +
               pmcapp::Fixed(panel.MeanDistance, 3) + " cells");
         }
+        for (size_t i = 0; i < mcDistances.size(); ++i)
+        {
+          std::string which = d.Values.size() > 1 ? " (v " + pmcapp::General(d.Values[i]) + ")" : "";
+          auto text = [](const pmcapp::Distance& m, const std::string& who) {
+            std::string t = "max " + pmcapp::Fixed(m.Max, 5) + ", mean " +
+              pmcapp::Fixed(m.Mean, 5) + " cells (" + who + ", " + pmcapp::Grouped(m.Samples) +
+              " points";
+            if (m.Unresolved > 0)
+            {
+              t += ", " + pmcapp::Grouped(m.Unresolved) + " unresolved";
+            }
+            return t + ")";
+          };
+          table << Row("S_K distance MC", text(mcDistances[i], "vtkMarchingCubes" + which));
+          table << Row("S_K distance out", text(refinedDistances[i], "PreciseMC" + which));
+        }
         std::string times = d.LoadPhase + " " + Seconds(d.LoadSeconds) + " | extract " +
           Seconds(extractSeconds);
-        if (pictures)
+        if (pictures || o.Measure)
         {
           times += " | vtkMarchingCubes " + Seconds(mcSeconds);
+        }
+        if (o.Measure)
+        {
+          times += " | measure " + Seconds(measureSeconds);
         }
         if (!o.Distance.empty())
         {

@@ -6,6 +6,7 @@ closing line "cli: N passed, M failed". It needs Debian's /usr/bin/python3
 (VTK's Python bindings) to write the input volumes and read the outputs
 back. Environment: PRECISEMC (the tool), CLI_TMP (scratch directory).
 """
+import math
 import os
 import re
 import shutil
@@ -521,6 +522,90 @@ def error_unwritable_outputs():
     expect_error(["--sample", "tube", "-o", out, "--distance", png], "does not exist",
                  outputs=[out])
     expect(sorted(os.listdir(d)) == ["adir.vtp"], f"left behind: {os.listdir(d)}")
+
+
+# --- --measure ----------------------------------------------------------------
+
+def measured(stdout, key):
+    """[(max, mean, points)] of the rows `key` ('S_K distance MC' or
+    'S_K distance out')."""
+    rows = re.findall(r"^  " + re.escape(key) + r"\s+max ([0-9.]+), mean ([0-9.]+) cells "
+                      r"\([^,]*, ([0-9 ]+[0-9]) points", stdout, re.M)
+    expect(rows, f"no row {key!r} in the table:\n{stdout}")
+    return [(float(a), float(b), int(c.replace(" ", ""))) for a, b, c in rows]
+
+
+@check
+def measure_refined_closer_than_mc():
+    for sample, eps in (("atoms", "0.001"), ("tube", "0.01")):
+        r = ok("--sample", sample, "--measure", "--measure-density", "2", "--epsilon", eps)
+        (mc_max, mc_mean, mc_points), = measured(r.stdout, "S_K distance MC")
+        (out_max, out_mean, out_points), = measured(r.stdout, "S_K distance out")
+        # density 2: 6 points per triangle (vtkMarchingCubes's own triangles,
+        # not the "MC triangles" of PreciseMC's trilinear topology).
+        expect(mc_points > 0 and mc_points % 6 == 0, f"{sample}: MC points {mc_points}")
+        expect(out_points == 6 * table_value(r.stdout, "output triangles"),
+               f"{sample}: refined points")
+        expect(mc_max > 0.1, f"{sample}: MC max distance {mc_max} implausibly small")
+        expect(out_mean < 0.5 * mc_mean, f"{sample}: refined mean {out_mean} vs MC {mc_mean}")
+        expect(out_max <= mc_max, f"{sample}: refined max {out_max} vs MC {mc_max}")
+        expect(re.search(r"\| measure [0-9.]+ s", r.stdout), "no measure time")
+
+
+@check
+def measure_several_isovalues():
+    r = ok("--sample", "atoms", "--measure", "--measure-density", "1", "-v", "30", "-v", "80")
+    mc = measured(r.stdout, "S_K distance MC")
+    out = measured(r.stdout, "S_K distance out")
+    expect(len(mc) == 2 and len(out) == 2, "one row pair per isovalue expected")
+    # density 1 measures the vertices only: both surfaces' vertices lie on S_K.
+    for m in mc + out:
+        expect(m[0] < 1e-3, f"vertex distance {m[0]} not ~0")
+    expect(sum(p for _, _, p in out) == 3 * table_value(r.stdout, "output triangles"),
+           "the refined triangles of both isovalues are measured once each")
+
+
+@check
+def measure_independent_of_extent_and_direction():
+    """The same samples with an extent not starting at 0 and a rotated
+    direction matrix measure the same distances (points are mapped back to
+    the index frame)."""
+    d = fresh_dir("measure-geometry")
+    plain = blob_image()
+    moved = vtkImageData()
+    moved.DeepCopy(plain)
+    moved.SetExtent(3, 26, -2, 17, 5, 22)
+    c, s = math.cos(0.4), math.sin(0.4)
+    moved.SetDirectionMatrix(c, -s, 0, s, c, 0, 0, 0, 1)
+    results = []
+    for name, image in (("plain.vti", plain), ("moved.vti", moved)):
+        path = os.path.join(d, name)
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(image)
+        w.Write()
+        r = ok(path, "-v", "40", "--measure")
+        results.append((measured(r.stdout, "S_K distance MC"),
+                        measured(r.stdout, "S_K distance out")))
+    for a, b in zip(results[0], results[1]):
+        (amax, amean, apts), = a
+        (bmax, bmean, bpts), = b
+        expect(apts == bpts, f"points {apts} vs {bpts}")
+        expect(abs(amax - bmax) < 1e-4 and abs(amean - bmean) < 1e-4,
+               f"distances differ: {a} vs {b}")
+
+
+@check
+def error_measure_options():
+    expect_error(["--sample", "ml", "--measure-density", "2"], "needs --measure", status=2)
+    expect_error(["--sample", "ml", "--measure", "-q"], "--quiet", status=2)
+    expect_error(["--sample", "ml", "--measure", "--measure-density", "0"], "between 1 and 64",
+                 status=2)
+    expect_error(["--sample", "ml", "--measure", "--measure-density", "65"], "too large",
+                 status=2)
+    expect_error(["--sample", "ml", "--measure=yes"], "takes no value", status=2)
+    expect_error(["--sample", "ml", "--measure", "--measure-density", "x"],
+                 "not a non-negative integer", status=2)
 
 
 @check

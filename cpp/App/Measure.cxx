@@ -1,0 +1,201 @@
+// --measure: maps a VTK surface back to the index frame of its volume and
+// calls pmc_measure_distance of the PreciseMC C API.
+#include "Measure.h"
+
+#include "Common.h"
+
+#include "precisemc.h"
+
+#include "vtkCellArray.h"
+#include "vtkCellArrayIterator.h"
+#include "vtkDataArray.h"
+#include "vtkImageData.h"
+#include "vtkMatrix3x3.h"
+#include "vtkPointData.h"
+#include "vtkPoints.h"
+#include "vtkPolyData.h"
+#include "vtkSmartPointer.h"
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace pmcapp
+{
+namespace
+{
+
+bool ScalarType(int vtkType, pmc_scalar_type& type)
+{
+  switch (vtkType)
+  {
+    case VTK_CHAR:
+      type = std::numeric_limits<char>::is_signed ? PMC_SCALAR_TYPE_I8 : PMC_SCALAR_TYPE_U8;
+      return true;
+    case VTK_SIGNED_CHAR:
+      type = PMC_SCALAR_TYPE_I8;
+      return true;
+    case VTK_UNSIGNED_CHAR:
+      type = PMC_SCALAR_TYPE_U8;
+      return true;
+    case VTK_SHORT:
+      type = PMC_SCALAR_TYPE_I16;
+      return true;
+    case VTK_UNSIGNED_SHORT:
+      type = PMC_SCALAR_TYPE_U16;
+      return true;
+    case VTK_INT:
+      type = PMC_SCALAR_TYPE_I32;
+      return true;
+    case VTK_UNSIGNED_INT:
+      type = PMC_SCALAR_TYPE_U32;
+      return true;
+    case VTK_LONG:
+      type = sizeof(long) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
+      return true;
+    case VTK_UNSIGNED_LONG:
+      type = sizeof(unsigned long) == 8 ? PMC_SCALAR_TYPE_U64 : PMC_SCALAR_TYPE_U32;
+      return true;
+    case VTK_LONG_LONG:
+      type = PMC_SCALAR_TYPE_I64;
+      return true;
+    case VTK_UNSIGNED_LONG_LONG:
+      type = PMC_SCALAR_TYPE_U64;
+      return true;
+    case VTK_FLOAT:
+      type = PMC_SCALAR_TYPE_F32;
+      return true;
+    case VTK_DOUBLE:
+      type = PMC_SCALAR_TYPE_F64;
+      return true;
+    default:
+      return false;
+  }
+}
+
+}
+
+Distance MeasureDistance(
+  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter)
+{
+  vtkDataArray* scalars = volume->GetPointData()->GetScalars();
+  if (!scalars)
+  {
+    throw Error("--measure: the volume has no point scalars");
+  }
+  pmc_scalar_type type;
+  if (!ScalarType(scalars->GetDataType(), type))
+  {
+    throw Error(std::string("--measure: unsupported scalar type ") +
+      scalars->GetDataTypeAsString());
+  }
+  vtkSmartPointer<vtkDataArray> contiguous = scalars;
+  if (!scalars->HasStandardMemoryLayout())
+  {
+    contiguous =
+      vtkSmartPointer<vtkDataArray>::Take(vtkDataArray::CreateDataArray(scalars->GetDataType()));
+    contiguous->DeepCopy(scalars);
+  }
+  const int comps = contiguous->GetNumberOfComponents();
+  int dims[3], extent[6];
+  volume->GetDimensions(dims);
+  volume->GetExtent(extent);
+
+  // The measure works in the index frame of the samples: origin 0, spacing
+  // 1, so the distances come out in cells.
+  pmc_volume v;
+  v.data = contiguous->GetVoidPointer(0);
+  v.len = static_cast<uint64_t>(contiguous->GetNumberOfValues());
+  v.scalar_type = type;
+  for (int i = 0; i < 3; ++i)
+  {
+    v.dims[i] = static_cast<uint64_t>(dims[i]);
+    v.origin[i] = 0.0;
+    v.spacing[i] = 1.0;
+  }
+  v.strides[0] = comps;
+  v.strides[1] = static_cast<int64_t>(comps) * dims[0];
+  v.strides[2] = static_cast<int64_t>(comps) * dims[0] * dims[1];
+
+  // world -> index: index_i = sum_j D[j][i] (w_j - o_j) / s_i - extent_min_i
+  // (the direction matrix is orthonormal for a valid image; VTK places
+  // sample index q at origin + D (spacing * q)).
+  double origin[3], spacing[3];
+  volume->GetOrigin(origin);
+  volume->GetSpacing(spacing);
+  vtkMatrix3x3* d = volume->GetDirectionMatrix();
+  double inverse[3][3];
+  vtkMatrix3x3::Invert(d->GetData(), &inverse[0][0]);
+
+  Distance result;
+  vtkPoints* points = surface ? surface->GetPoints() : nullptr;
+  vtkCellArray* polys = surface ? surface->GetPolys() : nullptr;
+  if (!points || !polys || polys->GetNumberOfCells() == 0)
+  {
+    return result;
+  }
+  const vtkIdType np = points->GetNumberOfPoints();
+  std::vector<double> xyz(3 * static_cast<size_t>(np));
+  for (vtkIdType p = 0; p < np; ++p)
+  {
+    double w[3];
+    points->GetPoint(p, w);
+    double r[3] = { w[0] - origin[0], w[1] - origin[1], w[2] - origin[2] };
+    for (int i = 0; i < 3; ++i)
+    {
+      double local = inverse[i][0] * r[0] + inverse[i][1] * r[1] + inverse[i][2] * r[2];
+      xyz[3 * p + i] = local / spacing[i] - extent[2 * i];
+    }
+  }
+
+  vtkDataArray* pointScalars = scalarFilter ? surface->GetPointData()->GetScalars() : nullptr;
+  std::vector<int64_t> tris;
+  tris.reserve(3 * static_cast<size_t>(polys->GetNumberOfCells()));
+  auto it = vtk::TakeSmartPointer(polys->NewIterator());
+  for (it->GoToFirstCell(); !it->IsDoneWithTraversal(); it->GoToNextCell())
+  {
+    vtkIdType n;
+    const vtkIdType* ids;
+    it->GetCurrentCell(n, ids);
+    if (n < 3)
+    {
+      continue;
+    }
+    if (pointScalars)
+    {
+      double s = pointScalars->GetComponent(ids[0], 0);
+      if (std::fabs(s - value) > 1e-6 * (1.0 + std::fabs(value)))
+      {
+        continue;
+      }
+    }
+    // Polygons are fanned into triangles (the contour filters give
+    // triangles only).
+    for (vtkIdType k = 1; k + 1 < n; ++k)
+    {
+      tris.push_back(ids[0]);
+      tris.push_back(ids[k]);
+      tris.push_back(ids[k + 1]);
+    }
+  }
+  result.Triangles = tris.size() / 3;
+  if (tris.empty())
+  {
+    return result;
+  }
+  pmc_distance out;
+  pmc_status status = pmc_measure_distance(&v, value, xyz.data(), static_cast<uint64_t>(np),
+    tris.data(), static_cast<uint64_t>(tris.size() / 3), density, &out);
+  if (status != PMC_STATUS_OK)
+  {
+    throw Error(std::string("--measure: pmc_measure_distance failed: ") +
+      pmc_status_string(status));
+  }
+  result.Max = out.max;
+  result.Mean = out.mean;
+  result.Samples = out.samples;
+  result.Unresolved = out.unresolved;
+  return result;
+}
+
+}
