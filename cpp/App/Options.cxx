@@ -231,6 +231,15 @@ Options ParseArguments(int argc, char* argv[])
     {
       o.Distance = value();
     }
+    else if (name == "--write-volume")
+    {
+      o.WriteVolume = value();
+      if (Extension(o.WriteVolume) != ".vti")
+      {
+        Usage("--write-volume writes VTK XML image data: '" + o.WriteVolume +
+          "' does not end in .vti");
+      }
+    }
     else if (name == "--measure")
     {
       flag();
@@ -328,6 +337,10 @@ options:
                         (right), one row per volume
       --distance PNG    picture of the Marching Cubes surface coloured by
                         its distance to the refined surface
+      --write-volume VTI
+                        also write the volume contoured (a sample, or the
+                        input as read) as .vti; with several volumes one
+                        file each, like -o
       --measure         add to the table the distance of vtkMarchingCubes's
                         surface and of PreciseMC's surface to the trilinear
                         isosurface S_K (max and area-weighted mean, in

@@ -26,6 +26,7 @@ struct Options
   std::string Output;   // -o
   std::string Compare;  // --compare PNG
   std::string Distance; // --distance PNG
+  std::string WriteVolume; // --write-volume VTI: the volume contoured
 
   bool Measure = false;     // --measure: distances to S_K in the table
   int MeasureDensity = -1;  // --measure-density; -1 = not given (3)

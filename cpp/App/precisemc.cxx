@@ -21,6 +21,7 @@
 #include "vtkPolyData.h"
 #include "vtkPreciseMarchingCubes.h"
 #include "vtkVersion.h"
+#include "vtkXMLImageDataWriter.h"
 
 #include <chrono>
 #include <cstdio>
@@ -269,6 +270,10 @@ int main(int argc, char* argv[])
     {
       pmcapp::CheckWritable(o.Distance, "picture");
     }
+    if (!o.WriteVolume.empty())
+    {
+      pmcapp::CheckWritable(o.WriteVolume, "volume");
+    }
     const bool pictures = !o.Compare.empty() || !o.Distance.empty();
     if (pictures)
     {
@@ -352,6 +357,22 @@ int main(int argc, char* argv[])
         start = Clock::now();
         pmcapp::ComputeDistance(panel);
         distanceSeconds = SecondsSince(start);
+      }
+      if (!o.WriteVolume.empty())
+      {
+        std::string path = several ? pmcapp::WithSuffix(o.WriteVolume, d.Name) : o.WriteVolume;
+        std::string tmp = pmcapp::TemporaryPathFor(path);
+        vtkNew<vtkXMLImageDataWriter> writer;
+        writer->SetFileName(tmp.c_str());
+        writer->SetInputData(d.Volume);
+        writer->SetDataModeToAppended();
+        writer->EncodeAppendedDataOff();
+        if (!writer->Write())
+        {
+          pmcapp::RemoveFile(tmp);
+          throw Error("cannot write the volume " + path);
+        }
+        pmcapp::CommitFile(tmp, path);
       }
       if (!output.empty())
       {

@@ -596,6 +596,25 @@ def measure_independent_of_extent_and_direction():
 
 
 @check
+def write_volume_round_trip():
+    d = fresh_dir("write-volume")
+    base = os.path.join(d, "s.vti")
+    r = ok("--sample", "all", "--write-volume", base)
+    for name in ("tube", "atoms", "ml"):
+        path = os.path.join(d, f"s-{name}.vti")
+        expect(os.path.isfile(path), f"{path} not written")
+        # Contouring the written volume gives the sample's triangles.
+        again = ok(path, "-v", {"tube": "50.5", "atoms": "50.5", "ml": "0.5"}[name])
+        expect(table_value(again.stdout, "output triangles") ==
+               table_values(r.stdout, "output triangles")[("tube", "atoms", "ml").index(name)],
+               f"{name}: another surface from the written volume")
+    expect_error(["--sample", "ml", "--write-volume", os.path.join(d, "v.png")], "does not end in .vti",
+                 status=2)
+    expect_error(["--sample", "ml", "--write-volume", os.path.join(d, "nodir", "v.vti")],
+                 "does not exist")
+
+
+@check
 def error_measure_options():
     expect_error(["--sample", "ml", "--measure-density", "2"], "needs --measure", status=2)
     expect_error(["--sample", "ml", "--measure", "-q"], "--quiet", status=2)
