@@ -1,0 +1,589 @@
+#!/usr/bin/python3
+"""PreciseMC against vtkMarchingCubes, vtkFlyingEdges3D and "upsample then
+contour": time, triangles, peak memory and the measured distance to the
+trilinear isosurface S_K of the ORIGINAL volume (pmc_measure_distance).
+
+Run through bench/run.sh (it builds the project and fetches the real volume
+from PyPI). Every configuration runs in its own subprocess (`--worker`), so
+that its peak memory (VmHWM) is its own: the figure reported is the peak
+minus the worker's peak after it has loaded the volume.
+
+    bench/run.sh [--quick] [--out DIR]
+
+Needs Debian's /usr/bin/python3 (python3-vtk9, numpy, matplotlib) and
+PYTHONPATH with the PreciseMC module (build/vtk/precisemc_pythonpath.txt).
+"""
+import argparse
+import ctypes
+import gzip
+import json
+import math
+import os
+import platform
+import statistics
+import struct
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+CACHE = os.environ.get("PMC_BENCH_CACHE", os.path.join(ROOT, "bench", ".cache"))
+
+# --- Volumes --------------------------------------------------------------------
+
+
+def smooth(n):
+    """The wavy sphere of src/samples.rs (samples::smooth), values in [0, 1]."""
+    s = n - 1.0
+    ax = np.arange(n, dtype=np.float64) / s - 0.5
+    w = ax[:, None, None]
+    v = ax[None, :, None]
+    u = ax[None, None, :]
+    r = np.sqrt(u * u + v * v + w * w)
+    wave = 0.04 * (np.sin(7.0 * u) + np.sin(9.0 * v) * np.cos(5.0 * w))
+    return np.clip(1.0 - 1.6 * r + wave, 0.0, 1.0)  # shape (z, y, x)
+
+
+def read_vti(path):
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+    r = vtkXMLImageDataReader()
+    r.SetFileName(path)
+    r.Update()
+    img = r.GetOutput()
+    nx, ny, nz = img.GetDimensions()
+    a = vtk_to_numpy(img.GetPointData().GetScalars())
+    return a.reshape(nz, ny, nx).copy()
+
+
+def read_nifti_frame0(path):
+    """Frame 0 of a little- or big-endian NIfTI-1 file (int16/uint8/float32)."""
+    raw = open(path, "rb").read()
+    if path.endswith(".gz"):
+        raw = gzip.decompress(raw)
+    for endian in "<>":
+        if struct.unpack(endian + "i", raw[:4])[0] == 348:
+            break
+    dim = struct.unpack(endian + "8h", raw[40:56])
+    datatype = struct.unpack(endian + "h", raw[70:72])[0]
+    offset = int(struct.unpack(endian + "f", raw[108:112])[0])
+    dtype = {2: "u1", 4: "i2", 16: "f4", 512: "u2"}[datatype]
+    nx, ny, nz = dim[1:4]
+    a = np.frombuffer(raw, dtype=endian + dtype, count=nx * ny * nz, offset=offset)
+    return a.reshape(nz, ny, nx).astype(dtype).copy()
+
+
+def prepare_volumes(quick, tool):
+    """Writes CACHE/<name>.npy and returns {name: meta}."""
+    os.makedirs(CACHE, exist_ok=True)
+    vols = {}
+
+    def put(name, data, iso, desc, group):
+        path = os.path.join(CACHE, name + ".npy")
+        if not os.path.exists(path):
+            np.save(path, np.ascontiguousarray(data))
+        vols[name] = dict(path=path, iso=float(iso), desc=desc, group=group,
+                          dims=[int(data.shape[2]), int(data.shape[1]), int(data.shape[0])],
+                          dtype=str(data.dtype))
+
+    sizes = [64, 128] if quick else [64, 128, 256, 512]
+    main_n = 64 if quick else 256
+    for n in sizes:
+        if os.path.exists(os.path.join(CACHE, f"smooth{n}_f32.npy")):
+            f = None
+        else:
+            f = smooth(n)
+        put(f"smooth{n}_f32", f.astype(np.float32) if f is not None else np.load(
+            os.path.join(CACHE, f"smooth{n}_f32.npy"), mmap_mode="r"), 0.5,
+            f"wavy sphere {n}^3 float32", "main" if n == main_n else "scaling")
+        if n == main_n and not quick:
+            f = smooth(n) if f is None else f
+            put(f"smooth{n}_u8", np.round(255.0 * f).astype(np.uint8), 127.5,
+                f"wavy sphere {n}^3 uint8", "main")
+            put(f"smooth{n}_i16", np.round(32000.0 * f).astype(np.int16), 16000.5,
+                f"wavy sphere {n}^3 int16", "main")
+
+    # The tool's built-in samples, written by the tool itself.
+    out = os.path.join(CACHE, "sample.vti")
+    if not all(os.path.exists(os.path.join(CACHE, f"sample-{s}.vti")) for s in ("tube", "atoms", "ml")):
+        subprocess.run([tool, "--sample", "all", "--epsilon", "0", "-q", "--write-volume", out],
+                       check=True)
+    for s, iso, desc in (("tube", 50.5, "trefoil tube 48x48x20 uint8 (precisemc --sample tube)"),
+                         ("atoms", 50.5, "Gaussian atom chain 40^3 float32 (--sample atoms)"),
+                         ("ml", 0.5, "Marschner-Lobb 41^3 float32 (--sample ml)")):
+        put(s, read_vti(os.path.join(CACHE, f"sample-{s}.vti")), iso, desc, "small")
+
+    nii = os.path.join(CACHE, "example4d.nii.gz")
+    if os.path.exists(nii):
+        a = read_nifti_frame0(nii)
+        # Brain/background threshold: half way between the background and
+        # the mean of the bright (tissue) voxels.
+        iso = 0.5 * float(a[a > a.mean()].mean()) + 0.5
+        put("brain_epi", a, iso, "fMRI EPI 128x96x24 int16, frame 0 of nibabel's "
+            "tests/data/example4d.nii.gz", "small")
+    return vols
+
+
+# --- The C API, through ctypes ---------------------------------------------------
+
+SCALAR = {"int8": 0, "uint8": 1, "int16": 2, "uint16": 3, "int32": 4, "uint32": 5,
+          "int64": 6, "uint64": 7, "float32": 8, "float64": 9}
+
+
+class PmcVolume(ctypes.Structure):
+    _fields_ = [("data", ctypes.c_void_p), ("len", ctypes.c_uint64),
+                ("scalar_type", ctypes.c_uint32), ("dims", ctypes.c_uint64 * 3),
+                ("strides", ctypes.c_int64 * 3), ("origin", ctypes.c_double * 3),
+                ("spacing", ctypes.c_double * 3)]
+
+
+class PmcDistance(ctypes.Structure):
+    _fields_ = [("max", ctypes.c_double), ("mean", ctypes.c_double), ("rms", ctypes.c_double),
+                ("samples", ctypes.c_uint64), ("unresolved", ctypes.c_uint64)]
+
+
+def library():
+    for p in (os.environ.get("PMC_LIBRARY", ""),
+              os.path.join(ROOT, "build/core/cargo-target/release/libprecisemc.so")):
+        if p and os.path.exists(p):
+            lib = ctypes.CDLL(p)
+            lib.pmc_measure_distance.restype = ctypes.c_uint32
+            lib.pmc_measure_distance.argtypes = [
+                ctypes.POINTER(PmcVolume), ctypes.c_double, ctypes.c_void_p, ctypes.c_uint64,
+                ctypes.c_void_p, ctypes.c_uint64, ctypes.c_uint32, ctypes.POINTER(PmcDistance)]
+            return lib
+    raise SystemExit("libprecisemc.so not found: build first (bench/run.sh does)")
+
+
+def measure(volume, iso, points, tris, cap, density):
+    """Distance to S_K of the volume (index frame = world, spacing 1): every
+    k-th triangle so that at most `cap` are measured."""
+    lib = library()
+    ntri = len(tris)
+    stride = max(1, math.ceil(ntri / cap)) if ntri else 1
+    sub = np.ascontiguousarray(tris[::stride], dtype=np.int64)
+    pts = np.ascontiguousarray(points, dtype=np.float64)
+    v = PmcVolume()
+    v.data = volume.ctypes.data
+    v.len = volume.size
+    v.scalar_type = SCALAR[str(volume.dtype)]
+    v.dims[:] = [volume.shape[2], volume.shape[1], volume.shape[0]]
+    v.strides[:] = [0, 0, 0]
+    v.origin[:] = [0.0, 0.0, 0.0]
+    v.spacing[:] = [1.0, 1.0, 1.0]
+    out = PmcDistance()
+    status = lib.pmc_measure_distance(ctypes.byref(v), iso, pts.ctypes.data, len(pts),
+                                      sub.ctypes.data, len(sub), density, ctypes.byref(out))
+    if status != 0:
+        raise RuntimeError(f"pmc_measure_distance: status {status}")
+    return dict(max=out.max, mean=out.mean, samples=out.samples, measured_tris=len(sub),
+                stride=stride)
+
+
+# --- Worker: one configuration ----------------------------------------------------
+
+
+def vm_hwm_kib():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1])
+    return 0
+
+
+def to_image(a):
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    img = vtkImageData()
+    img.SetDimensions(a.shape[2], a.shape[1], a.shape[0])
+    arr = numpy_to_vtk(a.ravel(), deep=False)
+    arr.SetName("s")
+    img.GetPointData().SetScalars(arr)
+    img._keep = a  # numpy_to_vtk(deep=False) does not own the memory
+    return img
+
+
+def build(cfg, img, iso):
+    """A fresh pipeline for the configuration; returns its last filter."""
+    kind = cfg["kind"]
+    if kind == "mc":
+        from vtkmodules.vtkFiltersCore import vtkMarchingCubes
+        f = vtkMarchingCubes()
+        f.ComputeNormalsOff()
+        f.ComputeGradientsOff()
+        f.ComputeScalarsOff()
+        f.SetInputData(img)
+    elif kind in ("fe", "upsample"):
+        from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
+        f = vtkFlyingEdges3D()
+        f.ComputeNormalsOff()
+        f.ComputeGradientsOff()
+        f.ComputeScalarsOff()
+        if kind == "upsample":
+            from vtkmodules.vtkCommonCore import VTK_FLOAT
+            from vtkmodules.vtkImagingCore import vtkImageResample
+            r = vtkImageResample()
+            r.SetInputData(img)
+            for axis in range(3):
+                r.SetAxisMagnificationFactor(axis, cfg["factor"])
+            r.SetInterpolationModeToLinear()
+            # Integer inputs are resampled to float: rounding the upsampled
+            # values back to integers would move the surface.
+            r.SetOutputScalarType(VTK_FLOAT)
+            r.SetNumberOfThreads(cfg["threads"])
+            f.SetInputConnection(r.GetOutputPort())
+        else:
+            f.SetInputData(img)
+    elif kind == "pmc":
+        from precisemc import vtkPreciseMarchingCubes
+        f = vtkPreciseMarchingCubes()
+        f.SetEpsilon(cfg.get("eps", 0.0))
+        f.SetMaxLevel(cfg.get("level", 5))
+        f.SetRule({"A": 0, "A1": 1, "A2": 2, "B": 3}[cfg.get("rule", "A1")])
+        f.SetTopology({"trilinear": 0, "classic": 1}[cfg.get("topology", "trilinear")])
+        f.SetComputeNormals(False)
+        f.SetComputeScalars(False)
+        f.SetNumberOfThreads(cfg["threads"])
+        f.SetInputData(img)
+    else:
+        raise ValueError(kind)
+    f.SetValue(0, iso)
+    return f
+
+
+def triangles_of(poly):
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    polys = poly.GetPolys()
+    n = polys.GetNumberOfCells()
+    if n == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    offsets = vtk_to_numpy(polys.GetOffsetsArray())
+    conn = vtk_to_numpy(polys.GetConnectivityArray()).astype(np.int64)
+    assert np.all(np.diff(offsets) == 3), "triangles expected"
+    pts = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
+    return pts, conn.reshape(-1, 3)
+
+
+def worker(cfg):
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+    threads = cfg["threads"]
+    if cfg["kind"] in ("fe", "upsample", "mc"):
+        vtkSMPTools.SetBackend("STDThread")
+        vtkSMPTools.Initialize(threads)
+    a = np.load(cfg["path"])
+    img = to_image(a)
+    # Import everything the run needs before the baseline.
+    build(cfg, img, cfg["iso"])
+    base = vm_hwm_kib()
+    times = []
+    poly = None
+    extra = {}
+    for _ in range(cfg["reps"]):
+        poly = None
+        f = build(cfg, img, cfg["iso"])
+        t0 = time.perf_counter()
+        f.Update()
+        times.append(time.perf_counter() - t0)
+        poly = f.GetOutput()
+        if cfg["kind"] == "pmc":
+            extra = dict(mc_tris=int(f.GetNumberOfMCTriangles()),
+                         above=int(f.GetNumberOfFacesAboveEpsilon()),
+                         proj_failures=int(f.GetNumberOfProjectionFailures()))
+    peak = vm_hwm_kib()
+    pts, tris = triangles_of(poly)
+    result = dict(cfg, time=statistics.median(times), time_min=min(times), tris=int(len(tris)),
+                  mem_mib=(peak - base) / 1024.0, smp=vtkSMPTools.GetBackend(), **extra)
+    if cfg.get("measure_cap", 0) > 0 and len(tris):
+        t0 = time.perf_counter()
+        result["dist"] = measure(a, cfg["iso"], pts, tris, cfg["measure_cap"], cfg["density"])
+        result["measure_s"] = time.perf_counter() - t0
+    return result
+
+
+def run_worker(cfg, env):
+    r = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(cfg)],
+                       capture_output=True, text=True, env=env, timeout=900)
+    if r.returncode != 0:
+        return dict(cfg, error=(r.stderr.strip().splitlines() or ["exit %d" % r.returncode])[-1])
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+# --- The plan -----------------------------------------------------------------------
+
+EPSILONS = [0.1, 0.03, 0.01, 0.003, 0.001]
+UPSAMPLE_CAP = 160e6  # largest upsampled volume (samples); 4 bytes each + FE's work
+
+
+def plan(vols, quick):
+    cfgs = []
+    reps_for = lambda v: 3 if quick else (3 if v["dims"][0] >= 256 else 5)
+    for name, v in vols.items():
+        if v["group"] == "scaling":
+            continue
+        reps = reps_for(v)
+        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=reps,
+                    measure_cap=5000 if quick else 25000, density=3)
+        cfgs.append(dict(base, kind="mc", label="vtkMarchingCubes", threads=1))
+        for t in (1, 2):
+            cfgs.append(dict(base, kind="fe", label=f"vtkFlyingEdges3D {t}T", threads=t))
+        for topo in ("classic", "trilinear"):
+            for t in ((2,) if quick else (1, 2)):
+                cfgs.append(dict(base, kind="pmc", label=f"PreciseMC off {topo} {t}T",
+                                 topology=topo, eps=0.0, threads=t))
+        eps_list = [0.03, 0.003] if quick else EPSILONS
+        for eps in eps_list:
+            cfgs.append(dict(base, kind="pmc", label=f"PreciseMC A1 eps {eps} 2T", rule="A1",
+                             eps=eps, threads=2))
+        if v["group"] == "small" and not quick:
+            for rule in ("A", "A2", "B"):
+                for eps in (0.01, 0.001):
+                    cfgs.append(dict(base, kind="pmc", label=f"PreciseMC {rule} eps {eps} 2T",
+                                     rule=rule, eps=eps, threads=2))
+        for factor in ((2, 4) if quick else (2, 4, 8)):
+            n = v["dims"][0] * v["dims"][1] * v["dims"][2] * factor ** 3
+            if n > UPSAMPLE_CAP:
+                continue
+            cfgs.append(dict(base, kind="upsample", label=f"upsample x{factor} + FE 2T",
+                             factor=factor, threads=2))
+    # Scaling: time and memory against the size, and against epsilon.
+    scal = [n for n in vols if n.startswith("smooth") and n.endswith("_f32")]
+    for name in scal:
+        v = vols[name]
+        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=1 if v["dims"][0] >= 512 else 3,
+                    measure_cap=0, density=3, scaling=True)
+        cfgs.append(dict(base, kind="fe", label="vtkFlyingEdges3D 2T", threads=2))
+        cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T", eps=0.0, threads=2))
+        if not quick:
+            cfgs.append(dict(base, kind="mc", label="vtkMarchingCubes", threads=1))
+            cfgs.append(dict(base, kind="pmc", label="PreciseMC A1 eps 0.01 2T", rule="A1",
+                             eps=0.01, threads=2))
+        if v["group"] == "scaling" and v["dims"][0] * 2 <= 256 and not quick:
+            cfgs.append(dict(base, kind="upsample", label="upsample x2 + FE 2T", factor=2,
+                             threads=2))
+    return cfgs
+
+
+# --- Report --------------------------------------------------------------------------
+
+
+def fmt_t(s):
+    return f"{s * 1000:.1f}" if s < 10 else f"{s * 1000:.0f}"
+
+
+def machine():
+    cpu = "unknown CPU"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 30
+    import vtkmodules
+    return (f"{cpu}, {os.cpu_count()} cores, {mem:.0f} GiB, {platform.system()} "
+            f"{platform.release()}, VTK {vtkmodules.__version__}, Python {platform.python_version()}")
+
+
+def report(vols, results, out, quick, elapsed):
+    lines = []
+    add = lines.append
+    add("# PreciseMC against VTK\n")
+    add(f"Machine: {machine()}. Load average at the start: {os.getloadavg()[0]:.2f} "
+        "(the machine is shared: compare the ratios, measured side by side).  ")
+    add(f"Mode: {'quick' if quick else 'full'}; total run {elapsed:.0f} s; "
+        f"{time.strftime('%Y-%m-%d')}.\n")
+    add("Times are the median of 3-5 runs of `Update()` (the scaling runs at 512^3: one run), "
+        "no normals, gradients or scalars in any filter. Memory: peak RSS (VmHWM) of the "
+        "worker process minus its peak after loading the volume. Distances are measured by "
+        "`pmc_measure_distance` against S_K of the ORIGINAL volume, in cells, at density 3 "
+        "(10 points per triangle), on every k-th triangle when there are more than "
+        "the cap (column `measured`): the max over a subset is a lower bound of the true max. "
+        "Upsampling: `vtkImageResample` (linear, float output) by the factor on each axis, "
+        "then `vtkFlyingEdges3D`, both with 2 threads; time includes the resampling. "
+        "PreciseMC max level 5 (default).\n")
+    by_vol = {}
+    for r in results:
+        if r.get("scaling"):
+            continue
+        by_vol.setdefault(r["vol"], []).append(r)
+    for name, rs in by_vol.items():
+        v = vols[name]
+        add(f"## {name}: {v['desc']}, isovalue {v['iso']:g}\n")
+        fe = {r["threads"]: r for r in rs if r["kind"] == "fe" and "error" not in r}
+        add("| configuration | time (ms) | × FE same T | triangles | Mtris/s | mem (MiB) | "
+            "max dist | mean dist | measured |")
+        add("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+        for r in rs:
+            if "error" in r:
+                add(f"| {r['label']} | error: {r['error'][:80]} | | | | | | | |")
+                continue
+            ref = fe.get(min(r["threads"], 2))
+            ratio = f"{r['time'] / ref['time']:.2f}" if ref else ""
+            d = r.get("dist", {})
+            meas = (f"{d['measured_tris']}" + (f" (1/{d['stride']})" if d.get("stride", 1) > 1
+                                                 else "")) if d else ""
+            add(f"| {r['label']} | {fmt_t(r['time'])} | {ratio} | {r['tris']:,} | "
+                f"{r['tris'] / r['time'] / 1e6:.2f} | {r['mem_mib']:.0f} | "
+                f"{d.get('max', float('nan')):.4f} | {d.get('mean', float('nan')):.5f} | {meas} |")
+        add("")
+        # Equal accuracy: the cheapest PreciseMC run reaching each upsampling
+        # factor's measured max (and mean) distance.
+        ups = [r for r in rs if r["kind"] == "upsample" and "dist" in r]
+        pm = [r for r in rs if r["kind"] == "pmc" and "dist" in r]
+        if ups and pm:
+            add("Equal accuracy (PreciseMC runs with the fewest triangles whose measured "
+                "distance is at most the upsampled surface's):\n")
+            add("| upsampling | its max / mean | its tris | its ms | PreciseMC for ≤ max | tris ratio "
+                "| time ratio | PreciseMC for ≤ mean | tris ratio | time ratio |")
+            add("|---|---|---:|---:|---|---:|---:|---|---:|---:|")
+            for u in ups:
+                row = [f"x{u['factor']}", f"{u['dist']['max']:.4f} / {u['dist']['mean']:.5f}",
+                       f"{u['tris']:,}", fmt_t(u["time"])]
+                for key in ("max", "mean"):
+                    ok = [r for r in pm if r["dist"][key] <= u["dist"][key]]
+                    if ok:
+                        best = min(ok, key=lambda r: r["tris"])
+                        row += [best["label"].replace("PreciseMC ", ""),
+                                f"{best['tris'] / u['tris']:.2f}", f"{best['time'] / u['time']:.2f}"]
+                    else:
+                        row += ["not reached", "", ""]
+                add("| " + " | ".join(row) + " |")
+            add("")
+    sc = [r for r in results if r.get("scaling") and "error" not in r]
+    if sc:
+        add("## Scaling (wavy sphere float32)\n")
+        add("| volume | configuration | time (ms) | triangles | Mcells/s | mem (MiB) |")
+        add("|---|---|---:|---:|---:|---:|")
+        for r in sc:
+            n = vols[r["vol"]]["dims"]
+            cells = (n[0] - 1) * (n[1] - 1) * (n[2] - 1)
+            add(f"| {r['vol']} | {r['label']} | {fmt_t(r['time'])} | {r['tris']:,} | "
+                f"{cells / r['time'] / 1e6:.1f} | {r['mem_mib']:.0f} |")
+        add("")
+    text = "\n".join(lines) + "\n"
+    with open(os.path.join(out, "results.md"), "w") as f:
+        f.write(text)
+    return text
+
+
+def plots(vols, results, out):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    ok = [r for r in results if "error" not in r]
+
+    # Error against triangles, one panel per volume with measured runs.
+    names = [n for n in vols if any(r["vol"] == n and "dist" in r and not r.get("scaling")
+                                    for r in ok)]
+    cols = min(4, len(names))
+    rows = math.ceil(len(names) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.8 * rows), squeeze=False)
+    for ax, name in zip(axes.flat, names):
+        rs = [r for r in ok if r["vol"] == name and "dist" in r and not r.get("scaling")]
+        groups = [("PreciseMC A1", lambda r: r["kind"] == "pmc" and r.get("rule") == "A1"
+                   and r.get("eps", 0) > 0, "o", "-", "C0"),
+                  ("PreciseMC off", lambda r: r["kind"] == "pmc" and r.get("eps", 0) == 0, "s",
+                   "", "C1"),
+                  ("upsample+FE", lambda r: r["kind"] == "upsample", "^", "-", "C2"),
+                  ("vtkMarchingCubes", lambda r: r["kind"] == "mc", "x", "", "C3"),
+                  ("PreciseMC A/A2/B", lambda r: r["kind"] == "pmc" and r.get("rule") in
+                   ("A", "A2", "B") and r.get("eps", 0) > 0, ".", "", "C4")]
+        for label, pred, marker, line, color in groups:
+            g = sorted((r for r in rs if pred(r)), key=lambda r: r["tris"])
+            if g:
+                ax.loglog([r["tris"] for r in g], [max(r["dist"]["max"], 1e-6) for r in g],
+                          marker=marker, ls=line or "none", color=color, label=label, ms=4)
+                ax.loglog([r["tris"] for r in g], [max(r["dist"]["mean"], 1e-7) for r in g],
+                          marker=marker, ls="--" if line else "none", color=color, alpha=0.45,
+                          ms=3)
+        ax.set_title(name, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.set_xlabel("triangles", fontsize=7)
+        ax.set_ylabel("distance to S_K (cells)", fontsize=7)
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=6)
+    fig.suptitle("max (solid) and mean (faded) distance to S_K vs triangles", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "error_vs_triangles.png"), dpi=80)
+    plt.close(fig)
+
+    # Time and memory against size.
+    sc = [r for r in ok if r.get("scaling")]
+    if sc:
+        fig, (a1, a2) = plt.subplots(1, 2, figsize=(8, 3))
+        for label in sorted({r["label"] for r in sc}):
+            g = sorted((r for r in sc if r["label"] == label), key=lambda r: vols[r["vol"]]["dims"][0])
+            xs = [vols[r["vol"]]["dims"][0] ** 3 for r in g]
+            a1.loglog(xs, [r["time"] for r in g], "o-", label=label, ms=3)
+            a2.loglog(xs, [max(r["mem_mib"], 0.1) for r in g], "o-", label=label, ms=3)
+        a1.set_xlabel("samples (64^3 .. 512^3)", fontsize=7)
+        a1.set_ylabel("time (s)", fontsize=7)
+        a2.set_xlabel("samples", fontsize=7)
+        a2.set_ylabel("peak extra memory (MiB)", fontsize=7)
+        for a in (a1, a2):
+            a.tick_params(labelsize=7)
+        a1.legend(fontsize=6)
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, "time_vs_size.png"), dpi=80)
+        plt.close(fig)
+
+    # Time against epsilon (PreciseMC A1), each main/small volume.
+    fig, ax = plt.subplots(figsize=(4.5, 3))
+    for name in vols:
+        g = sorted((r for r in ok if r["vol"] == name and r["kind"] == "pmc" and
+                    r.get("rule") == "A1" and r.get("eps", 0) > 0 and not r.get("scaling")),
+                   key=lambda r: r["eps"])
+        if g:
+            ax.loglog([r["eps"] for r in g], [r["time"] for r in g], "o-", label=name, ms=3)
+    ax.set_xlabel("epsilon (cells)", fontsize=7)
+    ax.set_ylabel("time (s), rule A1, 2 threads", fontsize=7)
+    ax.tick_params(labelsize=7)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "time_vs_epsilon.png"), dpi=80)
+    plt.close(fig)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true", help="small volumes, a minute or so")
+    ap.add_argument("--out", default=None, help="results folder (default bench/results, "
+                    "bench/results-quick with --quick)")
+    ap.add_argument("--tool", default=os.path.join(ROOT, "build/vtk/bin/precisemc"))
+    ap.add_argument("--worker", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        print(json.dumps(worker(json.loads(args.worker))))
+        return 0
+    out = args.out or os.path.join(ROOT, "bench", "results-quick" if args.quick else "results")
+    os.makedirs(out, exist_ok=True)
+    start = time.perf_counter()
+    vols = prepare_volumes(args.quick, args.tool)
+    cfgs = plan(vols, args.quick)
+    env = dict(os.environ, VTK_SMP_BACKEND_IN_USE="STDThread")
+    results = []
+    for i, cfg in enumerate(cfgs):
+        r = run_worker(cfg, env)
+        results.append(r)
+        d = r.get("dist")
+        print(f"[{i + 1}/{len(cfgs)}] {r['vol']:>14} {r['label']:<34} "
+              + (f"error: {r['error']}" if "error" in r else
+                 f"{r['time'] * 1000:9.1f} ms {r['tris']:>10,} tris {r['mem_mib']:7.0f} MiB"
+                 + (f"  max {d['max']:.4f} mean {d['mean']:.5f}" if d else "")), flush=True)
+    elapsed = time.perf_counter() - start
+    with open(os.path.join(out, "results.json"), "w") as f:
+        json.dump(dict(volumes=vols, results=results, machine=machine(), quick=args.quick,
+                       seconds=elapsed), f, indent=1)
+    report(vols, results, out, args.quick, elapsed)
+    plots(vols, results, out)
+    print(f"bench: {len(results)} configurations in {elapsed:.0f} s; results in {out}")
+    failed = [r for r in results if "error" in r]
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
