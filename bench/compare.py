@@ -332,10 +332,16 @@ def plan(vols, quick):
             for t in ((2,) if quick else (1, 2)):
                 cfgs.append(dict(base, kind="pmc", label=f"PreciseMC off {topo} {t}T",
                                  topology=topo, eps=0.0, threads=t))
-        eps_list = [0.03, 0.003] if quick else EPSILONS
+        eps_list = [0.03, 0.003] if quick else list(EPSILONS)
+        if v["group"] == "main" and v["dtype"] != "uint8" and not quick:
+            # Smooth data: Marching Cubes is already within ~0.003 cells.
+            eps_list += [0.0003, 0.0001]
         for eps in eps_list:
             cfgs.append(dict(base, kind="pmc", label=f"PreciseMC A1 eps {eps} 2T", rule="A1",
                              eps=eps, threads=2))
+        if v["group"] == "small" and not quick:
+            cfgs.append(dict(base, kind="pmc", label="PreciseMC A1 eps 0.001 L8 2T", rule="A1",
+                             eps=0.001, level=8, threads=2))
         if v["group"] == "small" and not quick:
             for rule in ("A", "A2", "B"):
                 for eps in (0.01, 0.001):
@@ -452,6 +458,33 @@ def report(vols, results, out, quick, elapsed):
                         row += ["not reached", "", ""]
                 add("| " + " | ".join(row) + " |")
             add("")
+    add("## Targets\n")
+    add("Refinement off against vtkFlyingEdges3D at the same thread count (time ratio, "
+        "< 1 is faster), on the volumes of at least 128^3:\n")
+    add("| volume | classic 1T | classic 2T | trilinear 1T | trilinear 2T |")
+    add("|---|---:|---:|---:|---:|")
+    for name, rs in by_vol.items():
+        if vols[name]["dims"][0] < 128:
+            continue
+        fe = {r["threads"]: r for r in rs if r["kind"] == "fe" and "error" not in r}
+        cells = []
+        for topo in ("classic", "trilinear"):
+            for t in (1, 2):
+                m = [r for r in rs if r.get("label") == f"PreciseMC off {topo} {t}T"
+                     and "error" not in r]
+                cells.append(f"{m[0]['time'] / fe[t]['time']:.2f}" if m and t in fe else "")
+        add(f"| {name} | " + " | ".join(cells) + " |")
+    refined = [r for r in results if r.get("kind") == "pmc" and r.get("eps", 0) > 0
+               and "error" not in r and r["threads"] == 2 and r["tris"] >= 1e6]
+    if refined:
+        best = max(refined, key=lambda r: r["tris"] / r["time"])
+        add(f"\nRefined output on 2 threads (runs with at least 1 M triangles): best "
+            f"{best['tris'] / best['time'] / 1e6:.2f} M triangles/s ({best['vol']}, "
+            f"{best['label']}), median "
+            f"{statistics.median(r['tris'] / r['time'] for r in refined) / 1e6:.2f} M/s over "
+            f"{len(refined)} runs (target: 10 M/s).")
+    add("\nEqual measured max distance: see the \"Equal accuracy\" tables (target: at most "
+        "1/4 of the triangles of upsample-then-contour, and less time).\n")
     sc = [r for r in results if r.get("scaling") and "error" not in r]
     if sc:
         add("## Scaling (wavy sphere float32)\n")
