@@ -238,6 +238,42 @@ typedef uint32_t pmc_normals;
 #endif // __cplusplus
 
 /**
+ * The reconstruction filter refinement follows (see `Reconstruction` in
+ * the README). Stored in C as a `uint32_t` holding one of the
+ * `PMC_RECONSTRUCTION_*` values.
+ */
+enum pmc_reconstruction
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The trilinear interpolant of each cell (the paper's; the default).
+     */
+    PMC_RECONSTRUCTION_TRILINEAR = 0,
+    /**
+     * Tricubic Catmull-Rom: interpolating, C1.
+     */
+    PMC_RECONSTRUCTION_CATMULL_ROM = 1,
+    /**
+     * Tricubic B-spline of the samples: C2, smoothing.
+     */
+    PMC_RECONSTRUCTION_BSPLINE = 2,
+    /**
+     * Tricubic B-spline through the samples (prefiltered; one `double`
+     * per sample of extra memory): C2, interpolating.
+     */
+    PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING = 3,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum pmc_reconstruction pmc_reconstruction;
+#else
+typedef uint32_t pmc_reconstruction;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * An extracted triangle mesh (opaque), owned by the caller from a
  * successful `pmc_extract` until `pmc_mesh_free`.
  *
@@ -694,6 +730,24 @@ pmc_status pmc_options_set_max_level(struct pmc_options *options, uint32_t max_l
  * As for `pmc_options_set_epsilon`.
  */
 pmc_status pmc_options_set_rule(struct pmc_options *options, pmc_rule rule);
+
+/**
+ * Sets the reconstruction filter whose isosurface refinement follows,
+ * one of the `PMC_RECONSTRUCTION_*` values. Default
+ * `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology and edge
+ * vertices always come from the samples; the cubic filters move only the
+ * split points, need one extra layer of samples around a piece for
+ * piece-independent output, and `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`
+ * allocates one `double` per sample.
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) for any other
+ * value; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.
+ *
+ * # Safety
+ *
+ * As for `pmc_options_set_epsilon`.
+ */
+pmc_status pmc_options_set_reconstruction(struct pmc_options *options, pmc_reconstruction reconstruction);
 
 /**
  * Sets the topology mode, one of the `PMC_TOPOLOGY_*` values. Default

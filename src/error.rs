@@ -65,6 +65,15 @@ pub enum Error {
     /// A worker thread pool could not be created.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),
+    /// A cell or point outside the volume given to
+    /// [`crate::filter::evaluate`].
+    #[error("cell {cell:?} or local point {local:?} is outside the volume")]
+    OutOfVolume {
+        /// The cell asked for (local cell indices).
+        cell: [u64; 3],
+        /// The local point asked for.
+        local: [f64; 3],
+    },
     /// Invalid input to [`crate::accuracy::measure`] (the reason).
     #[error("invalid mesh or settings for the distance measure: {0}")]
     InvalidMeasure(&'static str),

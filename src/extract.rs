@@ -18,11 +18,12 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
-use crate::options::Options;
+use crate::options::{Options, Reconstruction};
 use crate::refine::{shared_fixed_axes, Counters, EdgeCache, Refinable, Refiner, Tri};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
@@ -186,22 +187,49 @@ fn run<T: Scalar>(
         .num_threads(threads)
         .build_scoped(
             |thread| thread.run(),
-            |pool| run_in_pool(pool, threads, grid, volume, iso, options, &mut reporter),
+            |pool| {
+                let r = &mut reporter;
+                match options.reconstruction {
+                    Reconstruction::Trilinear => {
+                        let f = Trilinear::new(grid);
+                        run_in_pool(pool, threads, grid, &f, volume, iso, options, r)
+                    }
+                    Reconstruction::CatmullRom => {
+                        let f = Tricubic::<T, CatmullRomKernel>::new(grid);
+                        run_in_pool(pool, threads, grid, &f, volume, iso, options, r)
+                    }
+                    Reconstruction::BSpline => {
+                        let f = Tricubic::<T, BSplineKernel>::new(grid);
+                        run_in_pool(pool, threads, grid, &f, volume, iso, options, r)
+                    }
+                    Reconstruction::BSplineInterpolating => {
+                        let coefficients = prefilter(&grid)?;
+                        let dims = grid.dims.map(|n| n as u64);
+                        let cv = Volume::new(coefficients.as_slice(), dims)
+                            .with_index_offset(grid.index_offset);
+                        let f = Tricubic::<f64, BSplineKernel>::new(Grid::new(&coefficients, &cv));
+                        run_in_pool(pool, threads, grid, &f, volume, iso, options, r)
+                    }
+                }
+            },
         )
         .map_err(|e| Error::ThreadPool(e.to_string()))?
 }
 
-fn run_in_pool<T: Scalar>(
+/// One extraction in `pool`: Marching Cubes on `grid`'s samples, then
+/// refinement onto the isosurface of `filter`.
+#[allow(clippy::too_many_arguments)]
+fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
     pool: &rayon::ThreadPool,
     threads: usize,
     grid: Grid<'_, T>,
+    filter: &F,
     volume: &Volume<'_>,
     iso: f64,
     options: &Options,
     reporter: &mut Reporter<'_>,
 ) -> Result<Mesh, Error> {
     let start = Instant::now();
-    let filter = Trilinear::new(grid);
     let cell_dims = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
     let nz = cell_dims[2];
     // Slabs: several per thread for balance; the result does not depend on it.
@@ -234,7 +262,7 @@ fn run_in_pool<T: Scalar>(
             over_cap.store(false, Ordering::Relaxed);
             let shared = Shared {
                 grid,
-                filter: &filter,
+                filter,
                 cell_dims,
                 index_offset: grid.index_offset,
                 iso,
@@ -331,7 +359,15 @@ fn run_in_pool<T: Scalar>(
         return Err(Error::Aborted);
     }
     let t_n = Instant::now();
-    mesh.normals = compute_normals(&filter, volume, &mesh.index_points, options.normals, pool);
+    // Normals are those of the trilinear interpolant, whatever the filter.
+    let trilinear = Trilinear::new(grid);
+    mesh.normals = compute_normals(
+        &trilinear,
+        volume,
+        &mesh.index_points,
+        options.normals,
+        pool,
+    );
     stats.time_normals = t_n.elapsed().as_secs_f64();
     stats.time_total = start.elapsed().as_secs_f64();
     stats.output_triangles = mesh.triangles.len() as u64;

@@ -153,6 +153,60 @@ impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
     }
 }
 
+/// Value and gradient (index space) of the reconstruction `filter` of
+/// `volume`, evaluated in cell `cell` (local cell indices) at local
+/// coordinates `local` in `[0, 1]^3`: the function refinement follows.
+/// `Ok(None)` when a sample the cell needs is not finite. Meant for checks
+/// and small queries: the interpolating B-spline prefilters the whole
+/// volume on every call.
+///
+/// ```
+/// use precisemc::{filter::evaluate, Reconstruction, Volume};
+/// // f = x^2 on a 6^3 grid: Catmull-Rom reproduces quadratics.
+/// let data: Vec<f64> = (0..216).map(|n| ((n % 6) as f64).powi(2)).collect();
+/// let v = Volume::new(&data, [6, 6, 6]);
+/// let (f, g) = evaluate(&v, Reconstruction::CatmullRom, [2, 2, 2], [0.25, 0.5, 0.5])
+///     .unwrap()
+///     .unwrap();
+/// assert!((f - 2.25f64.powi(2)).abs() < 1e-12 && (g[0] - 4.5).abs() < 1e-12);
+/// ```
+pub fn evaluate(
+    volume: &crate::Volume<'_>,
+    filter: crate::Reconstruction,
+    cell: [u64; 3],
+    local: [f64; 3],
+) -> Result<Option<(f64, [f64; 3])>, crate::Error> {
+    use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
+    use crate::Reconstruction as R;
+    volume.validate()?;
+    if (0..3).any(|a| cell[a] + 1 >= volume.dims[a])
+        || local.iter().any(|c| !(0.0..=1.0).contains(c))
+    {
+        return Err(crate::Error::InvalidMeasure(
+            "cell or local point out of range",
+        ));
+    }
+    fn at<F: ReconstructionFilter>(f: &F, cell: [u64; 3], p: DVec3) -> Option<(f64, [f64; 3])> {
+        let c = f.load(cell.map(|c| c as usize))?;
+        let (v, g) = F::value_gradient(&c, p);
+        Some((v, g.to_array()))
+    }
+    let p = DVec3::from_array(local);
+    Ok(crate::volume::with_grid!(volume, |grid| match filter {
+        R::Trilinear => Ok(at(&Trilinear::new(grid), cell, p)),
+        R::CatmullRom => Ok(at(&Tricubic::<_, CatmullRomKernel>::new(grid), cell, p)),
+        R::BSpline => Ok(at(&Tricubic::<_, BSplineKernel>::new(grid), cell, p)),
+        R::BSplineInterpolating => prefilter(&grid).map(|c| {
+            let cv = crate::Volume::new(c.as_slice(), volume.dims);
+            at(
+                &Tricubic::<f64, BSplineKernel>::new(Grid::new(&c, &cv)),
+                cell,
+                p,
+            )
+        }),
+    })?)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -43,6 +43,7 @@ mod options;
 mod volume;
 
 pub mod accuracy;
+pub mod cubic;
 pub mod ffi;
 pub mod filter;
 pub mod mc;
@@ -57,7 +58,7 @@ mod refine;
 pub use error::Error;
 pub use extract::{extract, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};
-pub use options::{NormalMode, Options, Rule, Topology};
+pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
 pub use volume::{Samples, Scalar, ScalarType, Volume};
 
 /// Highest accepted `max_level`. Each level can multiply a triangle by 4,

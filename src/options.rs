@@ -46,6 +46,24 @@ pub enum NormalMode {
     CentralDifference,
 }
 
+/// The reconstruction filter whose isosurface refinement follows (split
+/// points are moved onto its isosurface). Marching Cubes' topology and edge
+/// vertices always come from the samples (the trilinear decision).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Reconstruction {
+    /// The trilinear interpolant of each cell (the paper's filter).
+    #[default]
+    Trilinear,
+    /// Tricubic Catmull–Rom: interpolating, C1, exact on quadratics.
+    CatmullRom,
+    /// Tricubic B-spline of the samples: C2, smoothing (does not pass
+    /// through the samples), exact on linear functions.
+    BSpline,
+    /// Tricubic B-spline through the samples (prefiltered coefficients,
+    /// one `f64` copy of the volume): C2 and interpolating.
+    BSplineInterpolating,
+}
+
 /// Options of one extraction. `Options::default()` gives the documented
 /// defaults.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +87,8 @@ pub struct Options {
     /// Worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
     pub threads: usize,
+    /// The filter refinement follows. Default [`Reconstruction::Trilinear`].
+    pub reconstruction: Reconstruction,
 }
 
 impl Default for Options {
@@ -81,6 +101,7 @@ impl Default for Options {
             normals: NormalMode::None,
             max_triangles: 0,
             threads: 0,
+            reconstruction: Reconstruction::Trilinear,
         }
     }
 }

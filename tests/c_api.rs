@@ -296,6 +296,7 @@ fn c_api_equals_rust_api() {
             },
             max_triangles: cap,
             threads: 1,
+            reconstruction: precisemc::Reconstruction::Trilinear,
         };
         let cm = c_extract(&cv, 5.5, o).unwrap();
         let rm = extract(&rv, 5.5, &ro).unwrap();

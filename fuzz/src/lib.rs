@@ -608,6 +608,9 @@ pub fn decode_options(r: &mut Reader<'_>) -> (Options, Option<Error>) {
         normals,
         max_triangles,
         threads,
+        // The corpus decodes no filter yet: the cubic filters are covered
+        // by tests/cubic.rs.
+        reconstruction: precisemc::Reconstruction::Trilinear,
     };
     let err = if !(epsilon.is_finite() && epsilon >= 0.0) {
         Some(Error::InvalidEpsilon(epsilon))

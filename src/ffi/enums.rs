@@ -7,7 +7,7 @@
 //! converted with `from_raw` and unknown ones are rejected with
 //! `PMC_STATUS_INVALID_ARGUMENT`.
 
-use crate::{NormalMode, Rule, ScalarType, Topology};
+use crate::{NormalMode, Reconstruction, Rule, ScalarType, Topology};
 
 macro_rules! raw_enum {
     ($t:ident: $($v:ident),* $(,)?) => {
@@ -157,6 +157,39 @@ impl PmcNormals {
             PmcNormals::None => NormalMode::None,
             PmcNormals::Gradient => NormalMode::Gradient,
             PmcNormals::CentralDifference => NormalMode::CentralDifference,
+        }
+    }
+}
+
+/// The reconstruction filter refinement follows (see `Reconstruction` in
+/// the README). Stored in C as a `uint32_t` holding one of the
+/// `PMC_RECONSTRUCTION_*` values.
+#[repr(u32)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PmcReconstruction {
+    /// The trilinear interpolant of each cell (the paper's; the default).
+    Trilinear = 0,
+    /// Tricubic Catmull-Rom: interpolating, C1.
+    CatmullRom = 1,
+    /// Tricubic B-spline of the samples: C2, smoothing.
+    Bspline = 2,
+    /// Tricubic B-spline through the samples (prefiltered; one `double`
+    /// per sample of extra memory): C2, interpolating.
+    BsplineInterpolating = 3,
+}
+raw_enum!(PmcReconstruction: Trilinear, CatmullRom, Bspline, BsplineInterpolating);
+
+/// The C representation of [`PmcReconstruction`].
+pub type pmc_reconstruction = u32;
+
+impl PmcReconstruction {
+    /// The core filter.
+    pub fn to_core(self) -> Reconstruction {
+        match self {
+            PmcReconstruction::Trilinear => Reconstruction::Trilinear,
+            PmcReconstruction::CatmullRom => Reconstruction::CatmullRom,
+            PmcReconstruction::Bspline => Reconstruction::BSpline,
+            PmcReconstruction::BsplineInterpolating => Reconstruction::BSplineInterpolating,
         }
     }
 }

@@ -35,8 +35,8 @@ mod version;
 mod volume;
 
 pub use enums::{
-    pmc_normals, pmc_rule, pmc_scalar_type, pmc_topology, PmcNormals, PmcRule, PmcScalarType,
-    PmcTopology,
+    pmc_normals, pmc_reconstruction, pmc_rule, pmc_scalar_type, pmc_topology, PmcNormals,
+    PmcReconstruction, PmcRule, PmcScalarType, PmcTopology,
 };
 pub use error::pmc_last_error_message;
 pub use extract::pmc_extract;
@@ -49,9 +49,9 @@ pub use mesh::{
 pub use options::{
     pmc_options, pmc_options_free, pmc_options_new, pmc_options_set_epsilon,
     pmc_options_set_index_offset, pmc_options_set_max_level, pmc_options_set_max_triangles,
-    pmc_options_set_normals, pmc_options_set_progress, pmc_options_set_rule,
-    pmc_options_set_threads, pmc_options_set_topology, pmc_progress_fn, PMC_MAX_LEVEL_LIMIT,
-    PMC_MAX_THREADS,
+    pmc_options_set_normals, pmc_options_set_progress, pmc_options_set_reconstruction,
+    pmc_options_set_rule, pmc_options_set_threads, pmc_options_set_topology, pmc_progress_fn,
+    PMC_MAX_LEVEL_LIMIT, PMC_MAX_THREADS,
 };
 pub use status::{pmc_status, pmc_status_string, PmcStatus};
 pub use version::pmc_version_string;

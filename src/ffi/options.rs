@@ -2,7 +2,10 @@
 
 use std::ffi::{c_int, c_void};
 
-use super::enums::{pmc_normals, pmc_rule, pmc_topology, PmcNormals, PmcRule, PmcTopology};
+use super::enums::{
+    pmc_normals, pmc_reconstruction, pmc_rule, pmc_topology, PmcNormals, PmcReconstruction,
+    PmcRule, PmcTopology,
+};
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
 use crate::Options;
@@ -191,6 +194,36 @@ pub unsafe extern "C" fn pmc_options_set_rule(
         let r = PmcRule::from_raw(rule)
             .ok_or_else(|| Failure::invalid(format!("unknown rule {rule}")))?;
         o.core.rule = r.to_core();
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { with_options(options, set) }
+}
+
+/// Sets the reconstruction filter whose isosurface refinement follows,
+/// one of the `PMC_RECONSTRUCTION_*` values. Default
+/// `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology and edge
+/// vertices always come from the samples; the cubic filters move only the
+/// split points, need one extra layer of samples around a piece for
+/// piece-independent output, and `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`
+/// allocates one `double` per sample.
+///
+/// Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) for any other
+/// value; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.
+///
+/// # Safety
+///
+/// As for `pmc_options_set_epsilon`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_options_set_reconstruction(
+    options: *mut pmc_options,
+    reconstruction: pmc_reconstruction,
+) -> PmcStatus {
+    let set = |o: &mut OptionsData| {
+        let r = PmcReconstruction::from_raw(reconstruction).ok_or_else(|| {
+            Failure::invalid(format!("unknown reconstruction filter {reconstruction}"))
+        })?;
+        o.core.reconstruction = r.to_core();
         Ok(())
     };
     // SAFETY: forwarded contract.
