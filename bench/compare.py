@@ -393,14 +393,15 @@ def machine():
             f"{platform.release()}, VTK {vtkmodules.__version__}, Python {platform.python_version()}")
 
 
-def report(vols, results, out, quick, elapsed):
+def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
     lines = []
     add = lines.append
     add("# PreciseMC against VTK\n")
-    add(f"Machine: {machine()}. Load average at the start: {os.getloadavg()[0]:.2f} "
+    load = os.getloadavg()[0] if load is None else load
+    add(f"Machine: {mach or machine()}. Load average at the start: {load:.2f} "
         "(the machine is shared: compare the ratios, measured side by side).  ")
     add(f"Mode: {'quick' if quick else 'full'}; total run {elapsed:.0f} s; "
-        f"{time.strftime('%Y-%m-%d')}.\n")
+        f"{date or time.strftime('%Y-%m-%d')}.\n")
     add("Times are the median of 3-5 runs of `Update()` (the scaling runs at 512^3: one run), "
         "no normals, gradients or scalars in any filter. Memory: peak RSS (VmHWM) of the "
         "worker process minus its peak after loading the volume. Distances are measured by "
@@ -564,17 +565,23 @@ def plots(vols, results, out):
         fig.savefig(os.path.join(out, "time_vs_size.png"), dpi=80)
         plt.close(fig)
 
-    # Time against epsilon (PreciseMC A1), each main/small volume.
-    fig, ax = plt.subplots(figsize=(4.5, 3))
+    # Time and memory against epsilon (PreciseMC A1, max level 5), each
+    # main/small volume.
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(8, 3))
     for name in vols:
         g = sorted((r for r in ok if r["vol"] == name and r["kind"] == "pmc" and
-                    r.get("rule") == "A1" and r.get("eps", 0) > 0 and not r.get("scaling")),
-                   key=lambda r: r["eps"])
+                    r.get("rule") == "A1" and r.get("eps", 0) > 0 and r.get("level", 5) == 5
+                    and not r.get("scaling")), key=lambda r: r["eps"])
         if g:
             ax.loglog([r["eps"] for r in g], [r["time"] for r in g], "o-", label=name, ms=3)
-    ax.set_xlabel("epsilon (cells)", fontsize=7)
+            bx.loglog([r["eps"] for r in g], [max(r["mem_mib"], 0.1) for r in g], "o-",
+                      label=name, ms=3)
     ax.set_ylabel("time (s), rule A1, 2 threads", fontsize=7)
-    ax.tick_params(labelsize=7)
+    bx.set_ylabel("peak extra memory (MiB)", fontsize=7)
+    for a in (ax, bx):
+        a.set_xlabel("epsilon (cells)", fontsize=7)
+        a.tick_params(labelsize=7)
+        a.invert_xaxis()
     ax.legend(fontsize=6)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "time_vs_epsilon.png"), dpi=80)
@@ -588,13 +595,23 @@ def main():
                     "bench/results-quick with --quick)")
     ap.add_argument("--tool", default=os.path.join(ROOT, "build/vtk/bin/precisemc"))
     ap.add_argument("--worker", help=argparse.SUPPRESS)
+    ap.add_argument("--report-only", action="store_true",
+                    help="rebuild results.md and the plots from OUT/results.json")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
         return 0
     out = args.out or os.path.join(ROOT, "bench", "results-quick" if args.quick else "results")
     os.makedirs(out, exist_ok=True)
+    if args.report_only:
+        with open(os.path.join(out, "results.json")) as f:
+            saved = json.load(f)
+        report(saved["volumes"], saved["results"], out, saved["quick"], saved["seconds"],
+               saved.get("machine"), saved.get("load"), saved.get("date"))
+        plots(saved["volumes"], saved["results"], out)
+        return 0
     start = time.perf_counter()
+    load = os.getloadavg()[0]
     vols = prepare_volumes(args.quick, args.tool)
     cfgs = plan(vols, args.quick)
     env = dict(os.environ, VTK_SMP_BACKEND_IN_USE="STDThread")
@@ -610,8 +627,8 @@ def main():
     elapsed = time.perf_counter() - start
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(dict(volumes=vols, results=results, machine=machine(), quick=args.quick,
-                       seconds=elapsed), f, indent=1)
-    report(vols, results, out, args.quick, elapsed)
+                       seconds=elapsed, load=load, date=time.strftime("%Y-%m-%d")), f, indent=1)
+    report(vols, results, out, args.quick, elapsed, load=load)
     plots(vols, results, out)
     print(f"bench: {len(results)} configurations in {elapsed:.0f} s; results in {out}")
     failed = [r for r in results if "error" in r]
