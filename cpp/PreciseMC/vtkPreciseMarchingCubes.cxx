@@ -18,11 +18,13 @@
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
 #include "vtkDoubleArray.h"
+#include "vtkExtentTranslator.h"
 #include "vtkFloatArray.h"
 #include "vtkIdList.h"
 #include "vtkIdTypeArray.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
+#include "vtkInformationIntegerRequestKey.h"
 #include "vtkInformationVector.h"
 #include "vtkMath.h"
 #include "vtkMatrix3x3.h"
@@ -180,6 +182,76 @@ bool InverseTranspose(const double m[3][3], double r[3][3])
   return true;
 }
 
+// The part of a mesh that is output: every point and triangle, or (when
+// the library contoured a ghost layer too) the triangles of the contoured
+// cells and the points they use.
+struct MeshSelection
+{
+  bool All = true;
+  vtkTypeUInt64 NumberOfPoints = 0;
+  vtkTypeUInt64 NumberOfTriangles = 0;
+  std::vector<vtkIdType> PointMap;  // new index of each point, -1 if dropped
+  std::vector<vtkIdType> Triangles; // indices of the kept triangles
+};
+
+// Keeps the triangles of the cells of `extent` (point extent, global
+// indices) out of a mesh contoured on `sampleExtent`, which may hold a
+// layer of ghost cells around it. Every triangle lies in the closed cell
+// that made it; its cell along each axis is taken as the floor of the
+// smallest vertex coordinate. The vertices are computed in global index
+// coordinates, bit-identically by every piece, so pieces sharing a face
+// assign each triangle to the same cell: the union of the pieces is the
+// serial mesh, each triangle exactly once. Triangles beyond the extent on
+// a side without ghost cells (flat in the volume's last face) are kept.
+void SelectCells(const pmc_mesh* mesh, const int extent[6], const int sampleExtent[6],
+  MeshSelection& selection)
+{
+  const vtkIdType np = static_cast<vtkIdType>(pmc_mesh_point_count(mesh));
+  const vtkIdType nt = static_cast<vtkIdType>(pmc_mesh_triangle_count(mesh));
+  const double* ijk = pmc_mesh_index_points(mesh);
+  const int64_t* tris = pmc_mesh_triangles(mesh);
+  selection.All = false;
+  selection.PointMap.assign(static_cast<size_t>(np), -1);
+  selection.Triangles.clear();
+  for (vtkIdType t = 0; t < nt; ++t)
+  {
+    const int64_t* tri = tris + 3 * t;
+    bool keep = true;
+    for (int d = 0; d < 3 && keep; ++d)
+    {
+      const double lowest =
+        std::min(ijk[3 * tri[0] + d], std::min(ijk[3 * tri[1] + d], ijk[3 * tri[2] + d]));
+      const double cell = std::floor(lowest);
+      if (extent[2 * d] > sampleExtent[2 * d] && cell < extent[2 * d])
+      {
+        keep = false;
+      }
+      else if (extent[2 * d + 1] < sampleExtent[2 * d + 1] && cell >= extent[2 * d + 1])
+      {
+        keep = false;
+      }
+    }
+    if (keep)
+    {
+      selection.Triangles.push_back(t);
+      for (int v = 0; v < 3; ++v)
+      {
+        selection.PointMap[static_cast<size_t>(tri[v])] = 0;
+      }
+    }
+  }
+  vtkIdType next = 0;
+  for (vtkIdType& p : selection.PointMap)
+  {
+    if (p == 0)
+    {
+      p = next++;
+    }
+  }
+  selection.NumberOfPoints = static_cast<vtkTypeUInt64>(next);
+  selection.NumberOfTriangles = static_cast<vtkTypeUInt64>(selection.Triangles.size());
+}
+
 } // anonymous namespace
 
 //------------------------------------------------------------------------------
@@ -198,6 +270,7 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   this->Epsilon = 0.01;
   this->MaxLevel = 5;
   this->Rule = RULE_A1;
+  this->ReconstructionFilter = RECONSTRUCTION_TRILINEAR;
   this->Topology = TOPOLOGY_TRILINEAR;
   this->NormalMode = NORMALS_GRADIENT;
   this->MaxTriangles = 0;
@@ -205,6 +278,12 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
 
   this->NumberOfExecutions = 0;
   this->ResetStatistics();
+  this->HasContourExtent = false;
+  for (int i = 0; i < 3; ++i)
+  {
+    this->ContourExtent[2 * i] = VTK_INT_MAX;
+    this->ContourExtent[2 * i + 1] = VTK_INT_MIN;
+  }
 
   // By default process active point scalars.
   this->SetInputArrayToProcess(
@@ -257,6 +336,24 @@ const char* vtkPreciseMarchingCubes::GetRuleAsString()
       return "A2";
     case RULE_B:
       return "B";
+    default:
+      return "Unknown";
+  }
+}
+
+//------------------------------------------------------------------------------
+const char* vtkPreciseMarchingCubes::GetReconstructionFilterAsString()
+{
+  switch (this->ReconstructionFilter)
+  {
+    case RECONSTRUCTION_TRILINEAR:
+      return "Trilinear";
+    case RECONSTRUCTION_CATMULL_ROM:
+      return "CatmullRom";
+    case RECONSTRUCTION_BSPLINE:
+      return "BSpline";
+    case RECONSTRUCTION_BSPLINE_INTERPOLATING:
+      return "BSplineInterpolating";
     default:
       return "Unknown";
   }
@@ -368,10 +465,44 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       }
     }
   }
+  // The cubic filters read one sample more around every cell: the cells of
+  // the piece (ContourExtent, from RequestUpdateExtent()) are contoured
+  // together with the ghost layer the input holds around them, and the
+  // triangles of the ghost cells are dropped below. The prefilter of
+  // BSplineInterpolating couples whole lines of samples, so it reads all
+  // the input holds (the whole volume, as requested).
+  const bool cubic = this->ReconstructionFilter != RECONSTRUCTION_TRILINEAR;
+  int sampleExtent[6];
+  std::copy(extent, extent + 6, sampleExtent);
+  if (cubic && this->HasContourExtent)
+  {
+    for (int i = 0; i < 3; ++i)
+    {
+      if (this->ContourExtent[2 * i] > this->ContourExtent[2 * i + 1])
+      {
+        vtkDebugMacro(<< "Empty piece");
+        return 1;
+      }
+    }
+    const bool global = this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING;
+    for (int i = 0; i < 3; ++i)
+    {
+      extent[2 * i] = std::max(dataExtent[2 * i], this->ContourExtent[2 * i]);
+      extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], this->ContourExtent[2 * i + 1]);
+      sampleExtent[2 * i] = global ? dataExtent[2 * i] : std::max(dataExtent[2 * i], extent[2 * i] - 1);
+      sampleExtent[2 * i + 1] =
+        global ? dataExtent[2 * i + 1] : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + 1);
+    }
+  }
   int dims[3];
+  int sampleDims[3];
+  bool ghostCells = false;
   for (int i = 0; i < 3; ++i)
   {
     dims[i] = extent[2 * i + 1] - extent[2 * i] + 1;
+    sampleDims[i] = sampleExtent[2 * i + 1] - sampleExtent[2 * i] + 1;
+    ghostCells = ghostCells || sampleExtent[2 * i] != extent[2 * i] ||
+      sampleExtent[2 * i + 1] != extent[2 * i + 1];
   }
   if (dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
   {
@@ -416,12 +547,14 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     }
   }
 
-  // The first sample of the contoured extent, as a value index.
+  // The first sample read (of the contoured extent, or of its ghost layer),
+  // as a value index.
   const uint64_t first = static_cast<uint64_t>(numComps) *
-      (static_cast<uint64_t>(extent[0] - dataExtent[0]) +
-        static_cast<uint64_t>(extent[2] - dataExtent[2]) * static_cast<uint64_t>(dataDims[0]) +
-        static_cast<uint64_t>(extent[4] - dataExtent[4]) * static_cast<uint64_t>(dataDims[0]) *
-          static_cast<uint64_t>(dataDims[1])) +
+      (static_cast<uint64_t>(sampleExtent[0] - dataExtent[0]) +
+        static_cast<uint64_t>(sampleExtent[2] - dataExtent[2]) *
+          static_cast<uint64_t>(dataDims[0]) +
+        static_cast<uint64_t>(sampleExtent[4] - dataExtent[4]) *
+          static_cast<uint64_t>(dataDims[0]) * static_cast<uint64_t>(dataDims[1])) +
     static_cast<uint64_t>(this->ArrayComponent);
   pmc_volume volume;
   volume.data = static_cast<const char*>(contiguous->GetVoidPointer(0)) +
@@ -430,7 +563,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   volume.scalar_type = scalarType;
   for (int i = 0; i < 3; ++i)
   {
-    volume.dims[i] = static_cast<uint64_t>(dims[i]);
+    volume.dims[i] = static_cast<uint64_t>(sampleDims[i]);
     volume.origin[i] = axisAligned ? origin[i] : 0.0;
     volume.spacing[i] = std::fabs(spacing[i]);
   }
@@ -446,7 +579,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     return 1;
   }
   bool computeNormals = this->ComputeNormals != 0;
-  const int64_t indexOffset[3] = { extent[0], extent[2], extent[4] };
+  const int64_t indexOffset[3] = { sampleExtent[0], sampleExtent[2], sampleExtent[4] };
   ProgressState progress = { this, 0.0, 1.0 };
   pmc_status status = PMC_STATUS_OK;
   const char* failed = nullptr;
@@ -463,6 +596,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     PMC_STATUS_OK)
   {
     failed = "Rule";
+  }
+  else if ((status = pmc_options_set_reconstruction(options.get(),
+              static_cast<pmc_reconstruction>(this->ReconstructionFilter))) != PMC_STATUS_OK)
+  {
+    failed = "ReconstructionFilter";
   }
   else if ((status = pmc_options_set_topology(
               options.get(), static_cast<pmc_topology>(this->Topology))) != PMC_STATUS_OK)
@@ -504,6 +642,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   ++this->NumberOfExecutions;
   std::vector<MeshPtr> meshes;
   meshes.reserve(static_cast<size_t>(numContours));
+  std::vector<MeshSelection> selections(static_cast<size_t>(numContours));
   vtkTypeUInt64 totalPoints = 0;
   vtkTypeUInt64 totalTriangles = 0;
   double levelSum = 0.0;
@@ -539,19 +678,45 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       output->Initialize();
       return 1;
     }
+    MeshSelection& selection = selections[static_cast<size_t>(c)];
+    if (ghostCells)
+    {
+      if ((pmc_mesh_point_count(mesh.get()) > 0 && !pmc_mesh_index_points(mesh.get())) ||
+        (pmc_mesh_triangle_count(mesh.get()) > 0 &&
+          (!pmc_mesh_triangles(mesh.get()) || !pmc_mesh_triangle_levels(mesh.get()))))
+      {
+        vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
+        this->ResetStatistics();
+        output->Initialize();
+        return 1;
+      }
+      SelectCells(mesh.get(), extent, sampleExtent, selection);
+      // The output statistics describe the kept triangles only.
+      const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh.get());
+      for (vtkIdType t : selection.Triangles)
+      {
+        this->MaxLevelReached = std::max(this->MaxLevelReached, static_cast<int>(triLevels[t]));
+        levelSum += triLevels[t];
+      }
+    }
+    else
+    {
+      selection.NumberOfPoints = pmc_mesh_point_count(mesh.get());
+      selection.NumberOfTriangles = pmc_mesh_triangle_count(mesh.get());
+      this->MaxLevelReached = std::max(this->MaxLevelReached, static_cast<int>(stats.max_level));
+      levelSum += stats.mean_level * static_cast<double>(stats.output_triangles);
+    }
     this->NumberOfMCTriangles += stats.mc_triangles;
-    this->NumberOfRefinedTriangles += stats.output_triangles;
+    this->NumberOfRefinedTriangles += selection.NumberOfTriangles;
     this->NumberOfAmbiguousCells += stats.ambiguous_cells;
     this->NumberOfSkippedCells += stats.skipped_nonfinite_cells;
-    this->MaxLevelReached = std::max(this->MaxLevelReached, static_cast<int>(stats.max_level));
-    levelSum += stats.mean_level * static_cast<double>(stats.output_triangles);
     this->NumberOfSamplesEvaluated += stats.samples_evaluated;
     this->NumberOfSplitPoints += stats.split_points;
     this->NumberOfProjectionFailures += stats.projection_failures;
     this->NumberOfFacesAboveEpsilon += stats.faces_above_epsilon;
     this->BudgetReached = this->BudgetReached || stats.budget_reached;
-    totalPoints += pmc_mesh_point_count(mesh.get());
-    totalTriangles += pmc_mesh_triangle_count(mesh.get());
+    totalPoints += selection.NumberOfPoints;
+    totalTriangles += selection.NumberOfTriangles;
     meshes.push_back(std::move(mesh));
   }
   this->MeanLevel = totalTriangles > 0 ? levelSum / static_cast<double>(totalTriangles) : 0.0;
@@ -656,9 +821,17 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       output->Initialize();
       return 1;
     }
+    // Output index of point i (all points, or those of the kept triangles).
+    const MeshSelection& selection = selections[static_cast<size_t>(c)];
+    const vtkIdType* pointMap = selection.All ? nullptr : selection.PointMap.data();
 
     for (vtkIdType i = 0; i < np; ++i)
     {
+      const vtkIdType o = ptOffset + (pointMap ? pointMap[i] : i);
+      if (pointMap && pointMap[i] < 0)
+      {
+        continue;
+      }
       double x[3];
       if (axisAligned)
       {
@@ -675,10 +848,10 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
             indexToWorld[r][2] * p[2];
         }
       }
-      newPts->SetPoint(ptOffset + i, x);
+      newPts->SetPoint(o, x);
       if (computeNormals)
       {
-        float* n = newNormals->GetPointer(3 * (ptOffset + i));
+        float* n = newNormals->GetPointer(3 * o);
         const float* m = normals + 3 * i;
         if (axisAligned)
         {
@@ -701,32 +874,41 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       }
       if (!indexPoints.empty())
       {
-        std::copy(ijk + 3 * i, ijk + 3 * i + 3, indexPoints.begin() + 3 * (ptOffset + i));
+        std::copy(ijk + 3 * i, ijk + 3 * i + 3, indexPoints.begin() + 3 * o);
       }
     }
+    const vtkIdType outPoints = static_cast<vtkIdType>(selection.NumberOfPoints);
+    const vtkIdType outTriangles = static_cast<vtkIdType>(selection.NumberOfTriangles);
     if (newScalars)
     {
-      for (vtkIdType i = 0; i < np; ++i)
+      for (vtkIdType i = 0; i < outPoints; ++i)
       {
         newScalars->SetComponent(ptOffset + i, 0, values[c]);
       }
     }
 
-    for (vtkIdType t = 0; t < nt; ++t)
+    for (vtkIdType k = 0; k < outTriangles; ++k)
     {
+      const vtkIdType t = selection.All ? k : selection.Triangles[static_cast<size_t>(k)];
       const int64_t* tri = tris + 3 * t;
-      vtkIdType* out = conn + 3 * (triOffset + t);
-      out[0] = ptOffset + static_cast<vtkIdType>(tri[0]);
-      out[1] = ptOffset + static_cast<vtkIdType>(tri[flipWinding ? 2 : 1]);
-      out[2] = ptOffset + static_cast<vtkIdType>(tri[flipWinding ? 1 : 2]);
-      offs[triOffset + t] = 3 * (triOffset + t);
+      vtkIdType ids[3];
+      for (int v = 0; v < 3; ++v)
+      {
+        const vtkIdType id = static_cast<vtkIdType>(tri[v]);
+        ids[v] = ptOffset + (pointMap ? pointMap[id] : id);
+      }
+      vtkIdType* out = conn + 3 * (triOffset + k);
+      out[0] = ids[0];
+      out[1] = ids[flipWinding ? 2 : 1];
+      out[2] = ids[flipWinding ? 1 : 2];
+      offs[triOffset + k] = 3 * (triOffset + k);
       if (levels)
       {
-        levels->SetValue(triOffset + t, triLevels[t]);
+        levels->SetValue(triOffset + k, triLevels[t]);
       }
     }
-    ptOffset += np;
-    triOffset += nt;
+    ptOffset += outPoints;
+    triOffset += outTriangles;
     meshes[c].reset(); // release memory as soon as copied
   }
   offs[numTris] = 3 * numTris;
@@ -819,17 +1001,88 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 
 //------------------------------------------------------------------------------
 // The piece asked for downstream is passed upstream as is (image pieces
-// share their boundary samples, which is all the filter needs), but without
-// ghost levels: the surface of a ghost layer would belong to two pieces.
+// share their boundary samples, which is all the trilinear filter needs),
+// but without ghost levels: the surface of a ghost layer would belong to
+// two pieces. The cubic filters read one more sample around every cell: the
+// piece's extent is kept in ContourExtent (the cells contoured) and the
+// input is asked for one ghost level around it (for an update extent given
+// as an extent, the extent grows by one sample instead), whose cells are
+// contoured but not output. BSplineInterpolating prefilters whole lines of
+// samples, so it asks for the whole volume in one piece.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   int result = this->Superclass::RequestUpdateExtent(request, inputVector, outputVector);
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  if (inInfo)
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  this->HasContourExtent = false;
+  if (!inInfo)
   {
-    inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), 0);
+    return result;
   }
+  int ghostLevels = 0;
+  if (this->ReconstructionFilter != RECONSTRUCTION_TRILINEAR && outInfo &&
+    inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    int whole[6];
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    int update[6];
+    std::copy(whole, whole + 6, update);
+    if (inInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))
+    {
+      inInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), update);
+    }
+    const int piece = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
+      ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
+      : 0;
+    const int numPieces =
+      outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+      ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+      : 1;
+    // The piece as the source splits it (without ghost levels).
+    this->HasContourExtent = true;
+    if (numPieces > 1)
+    {
+      int splitMode = vtkExtentTranslator::BLOCK_MODE;
+      if (inInfo->Has(vtkExtentTranslator::UPDATE_SPLIT_MODE()))
+      {
+        splitMode = inInfo->Get(vtkExtentTranslator::UPDATE_SPLIT_MODE());
+      }
+      vtkNew<vtkExtentTranslator> translator;
+      if (!translator->PieceToExtentThreadSafe(
+            piece, numPieces, 0, update, this->ContourExtent, splitMode, 0))
+      {
+        // An empty piece: nothing to contour.
+        this->ContourExtent[0] = VTK_INT_MAX;
+        this->ContourExtent[1] = VTK_INT_MIN;
+      }
+    }
+    else
+    {
+      std::copy(update, update + 6, this->ContourExtent);
+    }
+    if (this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING)
+    {
+      inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
+      inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
+      inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);
+    }
+    else if (numPieces > 1)
+    {
+      ghostLevels = 1;
+    }
+    else
+    {
+      int grown[6];
+      for (int i = 0; i < 3; ++i)
+      {
+        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - 1);
+        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + 1);
+      }
+      inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), grown, 6);
+    }
+  }
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
   return result;
 }
 
@@ -856,6 +1109,7 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Epsilon: " << this->Epsilon << "\n";
   os << indent << "MaxLevel: " << this->MaxLevel << "\n";
   os << indent << "Rule: " << this->GetRuleAsString() << "\n";
+  os << indent << "ReconstructionFilter: " << this->GetReconstructionFilterAsString() << "\n";
   os << indent << "Topology: " << this->GetTopologyAsString() << "\n";
   os << indent << "NormalMode: " << this->GetNormalModeAsString() << "\n";
   os << indent << "MaxTriangles: " << this->MaxTriangles << "\n";

@@ -52,10 +52,15 @@
  * of a volume that share a layer of samples are bit-identical.
  *
  * In a distributed pipeline each piece contours the input cropped to the
- * requested update extent, and no ghost levels are requested from the
- * input: image pieces share their boundary samples, so the union of the
- * pieces' surfaces is the surface of the whole volume, without cracks or
- * overlaps.
+ * requested update extent. With the trilinear reconstruction filter (the
+ * default) no ghost levels are requested from the input: image pieces
+ * share their boundary samples, so the union of the pieces' surfaces is
+ * the surface of the whole volume, without cracks or overlaps. The cubic
+ * filters read one more layer of samples around every cell, so they ask
+ * for one ghost level (BSplineInterpolating, whose prefilter is global,
+ * for the whole volume) and keep only the triangles of the piece's own
+ * cells: the union is then again exactly the serial surface (see
+ * SetReconstructionFilter()).
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
  * parallel over all cores unless NumberOfThreads is set; the output does
@@ -71,7 +76,10 @@
  *
  * @warning
  * The statistics (GetNumberOfMCTriangles() and the like) describe the last
- * execution, summed (or maximised) over the contour values.
+ * execution, summed (or maximised) over the contour values. With a cubic
+ * reconstruction filter on a piece with a ghost layer, the counts of the
+ * library (all but NumberOfRefinedTriangles, MaxLevelReached and
+ * MeanLevel, which describe the output) include the ghost cells.
  *
  * @sa
  * vtkMarchingCubes vtkFlyingEdges3D vtkContourFilter vtkImageTransform
@@ -117,6 +125,18 @@ public:
     RULE_A1 = 1,
     RULE_A2 = 2,
     RULE_B = 3
+  };
+
+  /**
+   * The reconstruction filter whose isosurface refinement follows (see
+   * SetReconstructionFilter()).
+   */
+  enum ReconstructionFilters
+  {
+    RECONSTRUCTION_TRILINEAR = 0,
+    RECONSTRUCTION_CATMULL_ROM = 1,
+    RECONSTRUCTION_BSPLINE = 2,
+    RECONSTRUCTION_BSPLINE_INTERPOLATING = 3
   };
 
   /**
@@ -286,6 +306,56 @@ public:
 
   ///@{
   /**
+   * Set/Get the reconstruction filter whose isosurface the split points of
+   * refinement are moved onto (Epsilon is measured to that isosurface, in
+   * cell units):
+   * - RECONSTRUCTION_TRILINEAR (the default): the trilinear interpolant of
+   *   each cell, as in the paper.
+   * - RECONSTRUCTION_CATMULL_ROM: tricubic Catmull-Rom (interpolates the
+   *   samples, C1).
+   * - RECONSTRUCTION_BSPLINE: tricubic B-spline of the samples (C2,
+   *   smoothing: it does not pass through the samples).
+   * - RECONSTRUCTION_BSPLINE_INTERPOLATING: tricubic B-spline through the
+   *   samples (prefiltered, C2); allocates one double per sample.
+   *
+   * Marching Cubes' topology and its edge vertices always come from the
+   * samples (the trilinear decision), so with a cubic filter only the
+   * split points lie on the cubic isosurface; the mesh stays welded,
+   * watertight and independent of the number of threads. Nothing is
+   * guaranteed about the topology of the cubic isosurface. The cubic
+   * filters read the 4x4x4 samples around a cell (the border sample
+   * repeated at the volume's border), so in a distributed pipeline they
+   * request one ghost level of input (BSplineInterpolating, whose
+   * prefilter couples all samples of a line, requests the whole volume on
+   * every piece) and contour only the piece's own cells: the union of the
+   * pieces is identical to the serial surface. Values outside 0..3 are
+   * clamped.
+   */
+  vtkSetClampMacro(
+    ReconstructionFilter, int, RECONSTRUCTION_TRILINEAR, RECONSTRUCTION_BSPLINE_INTERPOLATING);
+  vtkGetMacro(ReconstructionFilter, int);
+  void SetReconstructionFilterToTrilinear()
+  {
+    this->SetReconstructionFilter(RECONSTRUCTION_TRILINEAR);
+  }
+  void SetReconstructionFilterToCatmullRom()
+  {
+    this->SetReconstructionFilter(RECONSTRUCTION_CATMULL_ROM);
+  }
+  void SetReconstructionFilterToBSpline() { this->SetReconstructionFilter(RECONSTRUCTION_BSPLINE); }
+  void SetReconstructionFilterToBSplineInterpolating()
+  {
+    this->SetReconstructionFilter(RECONSTRUCTION_BSPLINE_INTERPOLATING);
+  }
+  /**
+   * The reconstruction filter's name: "Trilinear", "CatmullRom", "BSpline"
+   * or "BSplineInterpolating".
+   */
+  const char* GetReconstructionFilterAsString();
+  ///@}
+
+  ///@{
+  /**
    * Set/Get the topology mode: TOPOLOGY_TRILINEAR (the default; inside
    * every cell the mesh has the topology of the trilinear isosurface,
    * tunnels included) or TOPOLOGY_CLASSIC (the case table of
@@ -393,6 +463,7 @@ protected:
   double Epsilon;
   int MaxLevel;
   int Rule;
+  int ReconstructionFilter;
   int Topology;
   int NormalMode;
   vtkTypeUInt64 MaxTriangles;
@@ -411,6 +482,12 @@ protected:
   bool BudgetReached;
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;
+
+  // The extent whose cells are contoured, set by RequestUpdateExtent() for
+  // the cubic filters (the input may then hold a ghost layer more); when
+  // HasContourExtent is false the update extent is contoured.
+  int ContourExtent[6];
+  bool HasContourExtent;
 
 private:
   vtkPreciseMarchingCubes(const vtkPreciseMarchingCubes&) = delete;
