@@ -387,3 +387,261 @@ def test_runs_again_after_abort_without_manual_reset():
     f.Modified()
     f.Update()
     assert f.GetOutput().GetNumberOfPolys() > 0
+
+
+# --- Reconstruction filters ------------------------------------------------
+
+RECONSTRUCTIONS = {
+    "Trilinear": vtkPreciseMarchingCubes.RECONSTRUCTION_TRILINEAR,
+    "CatmullRom": vtkPreciseMarchingCubes.RECONSTRUCTION_CATMULL_ROM,
+    "BSpline": vtkPreciseMarchingCubes.RECONSTRUCTION_BSPLINE,
+    "BSplineInterpolating": vtkPreciseMarchingCubes.RECONSTRUCTION_BSPLINE_INTERPOLATING,
+}
+CUBIC = ["CatmullRom", "BSpline", "BSplineInterpolating"]
+
+
+def test_reconstruction_filter_property():
+    f = vtkPreciseMarchingCubes()
+    assert f.GetReconstructionFilter() == vtkPreciseMarchingCubes.RECONSTRUCTION_TRILINEAR == 0
+    assert f.GetReconstructionFilterAsString() == "Trilinear"
+    assert sorted(RECONSTRUCTIONS.values()) == [0, 1, 2, 3]
+    for name, value in RECONSTRUCTIONS.items():
+        f.SetReconstructionFilterToTrilinear()
+        getattr(f, "SetReconstructionFilterTo" + name)()
+        assert f.GetReconstructionFilter() == value
+        assert f.GetReconstructionFilterAsString() == name
+        assert f"ReconstructionFilter: {name}" in str(f)
+        f.SetReconstructionFilter(0)
+        f.SetReconstructionFilter(value)
+        assert f.GetReconstructionFilterAsString() == name
+    # Out of range values are clamped, and a set marks the filter modified.
+    f.SetReconstructionFilter(-7)
+    assert f.GetReconstructionFilter() == 0
+    mtime = f.GetMTime()
+    f.SetReconstructionFilter(99)
+    assert f.GetReconstructionFilter() == 3
+    assert f.GetMTime() > mtime
+
+
+# Independent evaluation of the reconstruction filters (public formulas):
+# tensor products of 1-D cubic kernels over the 4x4x4 samples around a
+# cell, the border sample repeated at the volume's border.
+def catmull_rom_weights(t):
+    return np.stack([0.5 * (-t + 2 * t**2 - t**3), 0.5 * (2 - 5 * t**2 + 3 * t**3),
+                     0.5 * (t + 4 * t**2 - 3 * t**3), 0.5 * (t**3 - t**2)], axis=-1)
+
+
+def bspline_weights(t):
+    return np.stack([(1 - t)**3 / 6, (4 - 6 * t**2 + 3 * t**3) / 6,
+                     (1 + 3 * t + 3 * t**2 - 3 * t**3) / 6, t**3 / 6], axis=-1)
+
+
+def tricubic(coefficients, index_points, weights):
+    """sum_abc w(x)_a w(y)_b w(z)_c c[k+c-1, j+b-1, i+a-1] at continuous (i, j, k)."""
+    nz, ny, nx = coefficients.shape
+    p = np.asarray(index_points, dtype=np.float64)
+    n = np.array([nx, ny, nz])
+    cell = np.clip(np.floor(p).astype(np.int64), 0, n - 2)
+    w = [weights(p[:, a] - cell[:, a]) for a in range(3)]
+    out = np.zeros(len(p))
+    for dz in range(4):
+        z = np.clip(cell[:, 2] + dz - 1, 0, nz - 1)
+        for dy in range(4):
+            y = np.clip(cell[:, 1] + dy - 1, 0, ny - 1)
+            for dx in range(4):
+                x = np.clip(cell[:, 0] + dx - 1, 0, nx - 1)
+                out += w[0][:, dx] * w[1][:, dy] * w[2][:, dz] * coefficients[z, y, x]
+    return out
+
+
+def bspline_coefficients(values):
+    """Coefficients whose cubic B-spline passes through the samples: along each
+    axis, (c[k-1] + 4 c[k] + c[k+1]) / 6 = s[k] with c[-1] = c[0], c[n] = c[n-1]
+    (the repeated border), solved densely."""
+    c = np.asarray(values, dtype=np.float64)
+    for axis in range(3):
+        n = c.shape[axis]
+        m = np.zeros((n, n))
+        for k in range(n):
+            m[k, k] += 4.0
+            m[k, max(k - 1, 0)] += 1.0
+            m[k, min(k + 1, n - 1)] += 1.0
+        m /= 6.0
+        moved = np.moveaxis(c, axis, 0)
+        c = np.moveaxis(np.linalg.solve(m, moved.reshape(n, -1)).reshape(moved.shape), 0, axis)
+    return c
+
+
+def reconstruct(name, values, index_points):
+    if name == "Trilinear":
+        return trilinear(values, index_points)
+    if name == "CatmullRom":
+        return tricubic(values, index_points, catmull_rom_weights)
+    if name == "BSpline":
+        return tricubic(values, index_points, bspline_weights)
+    return tricubic(bspline_coefficients(values), index_points, bspline_weights)
+
+
+def test_reference_filters_interpolate():
+    # The evaluator above: Catmull-Rom and the prefiltered B-spline pass
+    # through the samples, the plain B-spline does not.
+    values = np.random.default_rng(3).random((6, 7, 8))
+    grid = np.stack(np.meshgrid(np.arange(8), np.arange(7), np.arange(6), indexing="ij"), -1)
+    grid = grid.reshape(-1, 3).astype(np.float64)
+    samples = values[grid[:, 2].astype(int), grid[:, 1].astype(int), grid[:, 0].astype(int)]
+    for name in ["Trilinear", "CatmullRom", "BSplineInterpolating"]:
+        assert np.abs(reconstruct(name, values, grid) - samples).max() < 1e-12, name
+    assert np.abs(reconstruct("BSpline", values, grid) - samples).max() > 0.05
+
+
+def blobs(n=18, seed=7):
+    """Overlapping Gaussian blobs inside a zero border: a closed isosurface at
+    0.5 whose cubic and trilinear reconstructions differ."""
+    rng = np.random.default_rng(seed)
+    k, j, i = np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij")
+    values = np.zeros((n, n, n))
+    for _ in range(6):
+        c = rng.uniform(5, n - 6, 3)
+        r = rng.uniform(1.5, 2.5)
+        values += np.exp(-((i - c[0])**2 + (j - c[1])**2 + (k - c[2])**2) / (2 * r * r))
+    values[:2] = values[-2:] = 0
+    values[:, :2] = values[:, -2:] = 0
+    values[:, :, :2] = values[:, :, -2:] = 0
+    return values
+
+
+def assert_watertight(poly):
+    """Every directed edge is used once and its reverse once."""
+    tris = triangles(poly)
+    assert len(tris) > 0
+    edges = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]])
+    assert len(np.unique(edges, axis=0)) == len(edges), "an edge is used twice in one direction"
+    forward = {tuple(e) for e in edges}
+    assert all((b, a) in forward for a, b in edges), "an edge has no opposite triangle"
+
+
+@pytest.mark.parametrize("name", CUBIC)
+def test_cubic_filter_refines_onto_its_isosurface(name):
+    values = blobs()
+    image = image_from_array(values)
+    iso = 0.5
+    f = precise(image, [iso], ReconstructionFilter=RECONSTRUCTIONS[name], Epsilon=0.002,
+                ComputeLevels=True)
+    out = f.GetOutput()
+    assert f.GetReconstructionFilterAsString() == name
+    assert_watertight(out)
+    assert f.GetMaxLevelReached() > 0 and f.GetNumberOfSplitPoints() > 0
+
+    # Marching Cubes' vertices stay where they were (the trilinear decision).
+    plain = precise(image, [iso], Epsilon=0.0)
+    cubic_plain = precise(image, [iso], Epsilon=0.0, ReconstructionFilter=RECONSTRUCTIONS[name])
+    assert np.array_equal(points(plain.GetOutput()), points(cubic_plain.GetOutput()))
+    assert np.array_equal(triangles(plain.GetOutput()), triangles(cubic_plain.GetOutput()))
+    mc = match_points(plain.GetOutput(), out, 1e-12)
+    assert (mc >= 0).all(), "a Marching Cubes vertex moved"
+
+    # The split points lie on the chosen filter's isosurface, not on the
+    # trilinear one (index coordinates = world coordinates here).
+    ids = match_points(out, plain.GetOutput(), 1e-12)
+    refined = points(out)[ids < 0]
+    assert len(refined) > 100
+    assert np.abs(reconstruct(name, values, refined) - iso).max() < 1e-6
+    assert np.abs(trilinear(values, refined) - iso).max() > 1e-3
+    others = [n for n in CUBIC if n != name]
+    for other in others:
+        assert np.abs(reconstruct(other, values, refined) - iso).max() > 1e-3, other
+
+    # Different from the trilinear refinement.
+    tri = precise(image, [iso], Epsilon=0.002)
+    assert not np.array_equal(points(tri.GetOutput()), points(out))
+
+
+def test_trilinear_is_the_default_and_unchanged():
+    image = wavelet(10)
+    default = precise(image, [160.0], Epsilon=0.005)
+    explicit = precise(image, [160.0], Epsilon=0.005,
+                       ReconstructionFilter=vtkPreciseMarchingCubes.RECONSTRUCTION_TRILINEAR)
+    assert np.array_equal(points(default.GetOutput()), points(explicit.GetOutput()))
+    assert np.array_equal(triangles(default.GetOutput()), triangles(explicit.GetOutput()))
+    values = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(21, 21, 21)
+    ids = match_points(default.GetOutput(), precise(image, [160.0], Epsilon=0.0).GetOutput(), 1e-12)
+    refined = points(default.GetOutput())[ids < 0] + 10.0  # extent starts at -10
+    assert len(refined) > 100
+    assert np.abs(trilinear(values, refined) - 160.0).max() < 1e-9
+
+
+def coordinate_triangles(poly):
+    """Triangles as sorted rows of 9 coordinates, each rotated to start at its
+    lexicographically smallest vertex (orientation kept)."""
+    if poly.GetNumberOfPolys() == 0:
+        return np.zeros((0, 9))
+    xyz = points(poly)[triangles(poly)]
+    rows = []
+    for tri in xyz:
+        first = min(range(3), key=lambda v: tuple(tri[v]))
+        rows.append(np.roll(tri, -first, axis=0).ravel())
+    rows = np.array(rows)
+    return rows[np.lexsort(rows.T[::-1])]
+
+
+@pytest.mark.parametrize("name", list(RECONSTRUCTIONS))
+def test_pieces_equal_the_serial_surface(name):
+    from vtkmodules.vtkCommonExecutionModel import vtkExtentTranslator
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(source.GetOutputPort())
+    f.SetValue(0, 150.0)
+    f.SetValue(1, 200.0)
+    f.SetEpsilon(0.01)
+    f.SetOutputPointsPrecision(1)
+    f.SetReconstructionFilter(RECONSTRUCTIONS[name])
+    f.UpdatePiece(0, 1, 0)
+    serial = coordinate_triangles(f.GetOutput())
+    assert len(serial) > 1000
+    for pieces in (2, 3):
+        parts = []
+        for piece in range(pieces):
+            f.UpdatePiece(piece, pieces, 0)
+            parts.append(coordinate_triangles(f.GetOutput()))
+            assert len(parts[-1]) > 0
+            # What the filter asked its input for: the piece alone
+            # (trilinear), one ghost layer more (cubic), or the whole volume.
+            ghosts = {"Trilinear": 0, "CatmullRom": 1, "BSpline": 1}.get(name)
+            expected = [-8, 8, -8, 8, -8, 8]
+            if ghosts is not None:
+                vtkExtentTranslator().PieceToExtentThreadSafe(
+                    piece, pieces, ghosts, [-8, 8, -8, 8, -8, 8], expected,
+                    vtkExtentTranslator.BLOCK_MODE, 0)
+            assert list(source.GetOutput().GetExtent()) == expected
+        union = np.concatenate(parts)
+        union = union[np.lexsort(union.T[::-1])]
+        assert union.shape == serial.shape, f"{pieces} pieces"
+        assert np.array_equal(union, serial), f"{pieces} pieces"
+
+
+@pytest.mark.parametrize("name", ["CatmullRom", "BSpline"])
+def test_cubic_pieces_need_the_ghost_layer(name):
+    # Control for the test above: contouring the pieces' extents without
+    # the ghost layer gives another surface near the piece boundary.
+    from vtkmodules.vtkImagingCore import vtkExtractVOI, vtkRTAnalyticSource
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
+    source.Update()
+    whole = precise(source.GetOutput(), [150.0], ReconstructionFilter=RECONSTRUCTIONS[name])
+    parts = []
+    for lo, hi in ((-8, 0), (0, 8)):
+        voi = vtkExtractVOI()
+        voi.SetInputData(source.GetOutput())
+        voi.SetVOI(-8, 8, -8, 8, lo, hi)
+        voi.Update()
+        parts.append(coordinate_triangles(
+            precise(voi.GetOutput(), [150.0], ReconstructionFilter=RECONSTRUCTIONS[name])
+            .GetOutput()))
+    union = np.concatenate(parts)
+    serial = coordinate_triangles(whole.GetOutput())
+    assert union.shape != serial.shape or not np.array_equal(
+        union[np.lexsort(union.T[::-1])], serial)
