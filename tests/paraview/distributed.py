@@ -23,12 +23,20 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 
 # The configurations compared: plain Marching Cubes and refined surfaces.
 # "ghosts": a filter downstream asks for a ghost level, which must not make
-# the pieces overlap (the filter asks its input for none).
+# the pieces overlap (the filter asks its input for none, or for the one
+# ghost layer of samples a cubic filter reads, and outputs only its cells).
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     "refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1"),
     "refined-classic-B": dict(Epsilon=0.002, MaxLevel=3, Rule="B", Topology="Classic"),
     "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
+    # The cubic filters read a ghost layer of samples (the whole volume for
+    # the prefiltered B-spline) and must still give exactly the serial run.
+    "cubic-catmull-rom": dict(Epsilon=0.02, MaxLevel=3, ReconstructionFilter="Catmull-Rom"),
+    "cubic-bspline-ghosts": dict(Epsilon=0.02, MaxLevel=3, ReconstructionFilter="B-Spline",
+                                 ghosts=True),
+    "cubic-bspline-interpolating": dict(Epsilon=0.05, MaxLevel=2,
+                                        ReconstructionFilter="B-Spline Interpolating"),
 }
 ASK_FOR_GHOSTS = """
 from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp

@@ -35,6 +35,7 @@ def main():
         "NormalMode": "Gradient", "ComputeNormals": 1, "ComputeScalars": 1,
         "ComputeLevels": 0, "InterpolateAttributes": 0, "MaxTriangles": 0,
         "NumberOfThreads": 0, "ArrayComponent": 0, "OutputPointsPrecision": "Default",
+        "ReconstructionFilter": "Trilinear",
     }
     wrong = {k: contour.GetPropertyValue(k) for k, v in defaults.items()
              if contour.GetPropertyValue(k) != v}
@@ -89,6 +90,40 @@ def main():
     contour.NumberOfThreads = 1
     contour.UpdatePipeline()
     check("enumerations accepted", contour.GetDataInformation().GetNumberOfCells() > 0)
+
+    # The reconstruction filters: each reaches the VTK filter (a cubic one
+    # moves the split points, so the surface differs from the trilinear one)
+    # and is listed in the property's enumeration, in the refinement group.
+    contour.Topology = "Trilinear"
+    contour.Rule = "A1"
+    contour.Epsilon = 0.01
+    contour.MaxLevel = 2
+    prop = contour.GetProperty("ReconstructionFilter").SMProperty
+    entries = prop.GetDomain("enum")
+    texts = [entries.GetEntryText(i) for i in range(entries.GetNumberOfEntries())]
+    values = [entries.GetEntryValue(i) for i in range(entries.GetNumberOfEntries())]
+    check("ReconstructionFilter enumeration",
+          texts == ["Trilinear", "Catmull-Rom", "B-Spline", "B-Spline Interpolating"]
+          and values == [0, 1, 2, 3], f"{texts} {values}")
+    bounds = {}
+    for text in texts:
+        contour.ReconstructionFilter = text
+        contour.UpdatePipeline()
+        info = contour.GetDataInformation()
+        bounds[text] = (info.GetNumberOfCells(), info.GetBounds())
+    differ = [t for t in texts[1:] if bounds[t] != bounds["Trilinear"] and bounds[t][0] > 0]
+    check("reconstruction filters change the surface", differ == texts[1:], f"{bounds}")
+    # The plugin's classes are not Python-wrapped: read the VTK filter's
+    # PrintSelf.
+    printed = str(contour.GetClientSideObject())
+    check("ReconstructionFilter reaches the VTK filter",
+          "ReconstructionFilter: BSplineInterpolating" in printed,
+          [line for line in printed.splitlines() if "Reconstruction" in line])
+    groups = [g for g in range(contour.SMProxy.GetNumberOfPropertyGroups())
+              if contour.SMProxy.GetPropertyGroup(g).GetXMLLabel() == "Topology and Refinement"]
+    group = contour.SMProxy.GetPropertyGroup(groups[0]) if groups else None
+    members = [group.GetProperty(i) for i in range(group.GetNumberOfProperties())] if group else []
+    check("ReconstructionFilter in the refinement group", prop in members, f"{groups}")
 
     print(f"load: {sum(checks)} passed, {len(checks) - sum(checks)} failed")
 
