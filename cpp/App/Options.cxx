@@ -19,6 +19,9 @@ namespace
 
 const char* const RuleNames[] = { "A", "A1", "A2", "B" };
 const char* const TopologyNames[] = { "trilinear", "classic" };
+// In the order of vtkPreciseMarchingCubes::ReconstructionFilters.
+const char* const FilterNames[] = { "trilinear", "catmull-rom", "bspline",
+  "bspline-interpolating" };
 const char* const NormalsNames[] = { "none", "gradient", "central" };
 
 std::string Lower(std::string text)
@@ -92,6 +95,11 @@ std::string RuleName(int rule)
 std::string TopologyName(int topology)
 {
   return topology >= 0 && topology < 2 ? TopologyNames[topology] : "?";
+}
+
+std::string FilterName(int filter)
+{
+  return filter >= 0 && filter < 4 ? FilterNames[filter] : "?";
 }
 
 std::string NormalsName(int normals)
@@ -202,6 +210,10 @@ Options ParseArguments(int argc, char* argv[])
     else if (name == "--topology")
     {
       o.Topology = ParseName(name, value(), TopologyNames, 2);
+    }
+    else if (name == "--filter")
+    {
+      o.Filter = ParseName(name, value(), FilterNames, 4);
     }
     else if (name == "--normals")
     {
@@ -318,12 +330,17 @@ options:
                         middle of its scalar range
       --sample NAME     built-in volume: tube, atoms, ml or all
       --epsilon E       largest distance of a triangle's sample points to
-                        the trilinear isosurface, in cells; 0 = plain
-                        Marching Cubes (default 0.01)
+                        the trilinear isosurface (or --filter's), in
+                        cells; 0 = plain Marching Cubes (default 0.01)
       --max-level L     maximum refinement level, 0..10 (default 5)
       --rule R          refinement rule A, A1, A2 or B (default A1)
       --topology T      trilinear or classic (vtkMarchingCubes's table);
                         default trilinear
+      --filter F        reconstruction filter refinement follows: trilinear
+                        (default), catmull-rom, bspline (smoothing) or
+                        bspline-interpolating; --epsilon is then measured
+                        to that filter's isosurface (--measure still
+                        measures to the trilinear S_K)
       --normals N       point normals: none, gradient (of the trilinear
                         interpolant) or central (differences); default
                         gradient

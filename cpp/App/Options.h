@@ -19,6 +19,7 @@ struct Options
   int MaxLevel = 5;
   int Rule = 1;     // RULE_A1
   int Topology = 0; // TOPOLOGY_TRILINEAR
+  int Filter = 0;   // RECONSTRUCTION_TRILINEAR (--filter)
   int Normals = 1;  // 0 = none, else vtkPreciseMarchingCubes::NormalModes
   unsigned long long MaxTriangles = 0;
   int Threads = 0;
@@ -47,6 +48,7 @@ std::string UsageText();
 // Names of the enums, as accepted on the command line.
 std::string RuleName(int rule);
 std::string TopologyName(int topology);
+std::string FilterName(int filter);
 std::string NormalsName(int normals);
 
 }

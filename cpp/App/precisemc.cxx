@@ -214,6 +214,7 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   f->SetMaxLevel(o.MaxLevel);
   f->SetRule(o.Rule);
   f->SetTopology(o.Topology);
+  f->SetReconstructionFilter(o.Filter);
   f->SetComputeNormals(o.Normals != 0);
   if (o.Normals != 0)
   {
@@ -393,6 +394,10 @@ int main(int argc, char* argv[])
         std::ostringstream table;
         table << d.Name << ": " << d.Description << "\n";
         table << Row(d.Values.size() > 1 ? "isovalues" : "isovalue", ValuesText(d.Values));
+        if (o.Filter != 0)
+        {
+          table << Row("filter", pmcapp::FilterName(o.Filter) + " (refinement follows it)");
+        }
         std::string cellText = pmcapp::Grouped(cells) + " (" +
           pmcapp::Grouped(filter->GetNumberOfAmbiguousCells()) + " ambiguous";
         if (filter->GetNumberOfSkippedCells() > 0)

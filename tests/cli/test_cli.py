@@ -17,7 +17,7 @@ import tempfile
 import traceback
 
 import numpy as np
-from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
 from vtkmodules.vtkIOImage import vtkMetaImageWriter, vtkNIFTIImageWriter, vtkPNGReader
@@ -213,7 +213,8 @@ def write_inputs(d):
 def help_and_version():
     r = ok("--help")
     expect(r.stdout.startswith("usage: precisemc"), "help text")
-    for option in ("--value", "--epsilon", "--max-level", "--rule", "--topology", "--normals",
+    for option in ("--value", "--epsilon", "--max-level", "--rule", "--topology", "--filter",
+                   "catmull-rom", "bspline-interpolating", "--normals",
                    "--max-triangles", "--threads", "--output", "--compare", "--distance",
                    "--quiet", "--sample", "--version"):
         expect(option in r.stdout, f"{option} not in --help")
@@ -473,6 +474,37 @@ def error_isovalue_outside_range():
 
 
 @check
+def reconstruction_filters():
+    d = fresh_dir("filters")
+    surfaces = {}
+    for name in ("trilinear", "catmull-rom", "bspline", "bspline-interpolating"):
+        out = os.path.join(d, name + ".vtp")
+        # Case-insensitive, like the other enumerations.
+        r = ok("--sample", "atoms", "--epsilon", "0.02", "--max-level", "3",
+               "--filter", name.upper() if name == "bspline" else name, "-o", out)
+        rows = re.findall(r"^  filter\s+(\S+)", r.stdout, re.M)
+        if name == "trilinear":
+            expect(rows == [], f"a filter row for the default: {rows}")
+        else:
+            expect(rows == [name], f"filter row {rows}, expected {name}")
+        pd = read_surface(out)
+        expect(pd.GetNumberOfPolys() == table_value(r.stdout, "output triangles"),
+               f"{name}: file and table disagree")
+        pts = vtk_to_numpy(pd.GetPoints().GetData()).astype(float)
+        surfaces[name] = (table_value(r.stdout, "MC triangles"), pts)
+    mc = {name: v[0] for name, v in surfaces.items()}
+    expect(len(set(mc.values())) == 1, f"Marching Cubes differs between filters: {mc}")
+    # The split points follow the filter: every cubic surface differs from the
+    # trilinear one and from each other.
+    names = list(surfaces)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            pa, pb = surfaces[a][1], surfaces[b][1]
+            same = pa.shape == pb.shape and np.array_equal(np.sort(pa, axis=0), np.sort(pb, axis=0))
+            expect(not same, f"--filter {a} and {b} give the same points")
+
+
+@check
 def error_bad_option_values():
     d = fresh_dir("err-options")
     out = os.path.join(d, "o.vtp")
@@ -482,6 +514,9 @@ def error_bad_option_values():
         (["--epsilon", "nan"], "not a finite number"),
         (["--rule", "C"], "unknown value"),
         (["--topology", "smooth"], "unknown value"),
+        (["--filter", "cubic"], "--filter: unknown value 'cubic'"),
+        (["--filter", ""], "--filter"),
+        (["--filter"], "needs a value"),
         (["--normals", "flat"], "unknown value"),
         (["--max-level", "11"], "too large"),
         (["--max-level", "x"], "not a non-negative integer"),
