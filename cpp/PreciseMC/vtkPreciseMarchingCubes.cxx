@@ -489,7 +489,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       extent[2 * i] = std::max(dataExtent[2 * i], this->ContourExtent[2 * i]);
       extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], this->ContourExtent[2 * i + 1]);
-      sampleExtent[2 * i] = global ? dataExtent[2 * i] : std::max(dataExtent[2 * i], extent[2 * i] - 1);
+      sampleExtent[2 * i] =
+        global ? dataExtent[2 * i] : std::max(dataExtent[2 * i], extent[2 * i] - 1);
       sampleExtent[2 * i + 1] =
         global ? dataExtent[2 * i + 1] : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + 1);
     }

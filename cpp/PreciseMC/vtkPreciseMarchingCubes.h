@@ -272,7 +272,8 @@ public:
   /**
    * Set/Get the largest allowed distance, in cell units (edges of a cell of
    * index space), between a tested sample point of a triangle and the
-   * trilinear isosurface. Triangles with a sample point farther than this
+   * isosurface of the reconstruction filter (trilinear by default, see
+   * SetReconstructionFilter()). Triangles with a sample point farther than this
    * are split. 0 turns refinement off (plain Marching Cubes). Must be
    * finite and non-negative. Default 0.01.
    */
