@@ -708,7 +708,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       levelSum += stats.mean_level * static_cast<double>(stats.output_triangles);
     }
     this->NumberOfMCTriangles += stats.mc_triangles;
-    this->NumberOfRefinedTriangles += selection.NumberOfTriangles;
+    this->NumberOfRefinedTriangles +=
+      ghostCells ? selection.NumberOfTriangles : stats.output_triangles;
     this->NumberOfAmbiguousCells += stats.ambiguous_cells;
     this->NumberOfSkippedCells += stats.skipped_nonfinite_cells;
     this->NumberOfSamplesEvaluated += stats.samples_evaluated;
