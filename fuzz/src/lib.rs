@@ -7,7 +7,8 @@
 //! The bytes are decoded into a volume (dimensions, scalar type, memory
 //! layout, values including NaN, infinities, denormals, type extremes and
 //! values exactly at the isovalue), an isovalue, options (extreme epsilon
-//! and max level, triangle cap, threads, normals) and a progress callback
+//! and max level, triangle cap, threads, normals, reconstruction filter)
+//! and a progress callback
 //! that may abort at its n-th call. Every decoded input is valid to pass:
 //! invalid ones must be rejected with the documented error. The harness
 //! panics when a guarantee is violated:
@@ -36,7 +37,7 @@ use std::ops::ControlFlow;
 
 use precisemc::ffi;
 use precisemc::{extract, extract_with_progress, Error, Mesh, NormalMode, Options, Rule};
-use precisemc::{Samples, Topology, Volume, MAX_LEVEL_LIMIT};
+use precisemc::{Reconstruction, Samples, Topology, Volume, MAX_LEVEL_LIMIT};
 
 /// Most samples a decoded volume holds (keeps one run in milliseconds).
 pub const MAX_SAMPLES: usize = 4096;
@@ -608,9 +609,8 @@ pub fn decode_options(r: &mut Reader<'_>) -> (Options, Option<Error>) {
         normals,
         max_triangles,
         threads,
-        // The corpus decodes no filter yet: the cubic filters are covered
-        // by tests/cubic.rs.
-        reconstruction: precisemc::Reconstruction::Trilinear,
+        // Decoded last, by `decode_reconstruction`.
+        reconstruction: Reconstruction::Trilinear,
     };
     let err = if !(epsilon.is_finite() && epsilon >= 0.0) {
         Some(Error::InvalidEpsilon(epsilon))
@@ -628,6 +628,34 @@ pub fn decode_options(r: &mut Reader<'_>) -> (Options, Option<Error>) {
         o.max_triangles = 20_000;
     }
     (o, err)
+}
+
+/// Decodes the reconstruction filter, read after everything else so that
+/// inputs written before the filter was decoded keep their meaning: when
+/// the input proper is used up (the reader continues with its
+/// pseudo-random stream), the filter is `None` (the default, trilinear,
+/// and the C harness does not call the setter). Otherwise one byte gives
+/// the filter and the raw value the C harness passes to
+/// `pmc_options_set_reconstruction`: a valid code, or now and then an
+/// invalid one (the setter must reject it and leave the default).
+pub fn decode_reconstruction(r: &mut Reader<'_>) -> Option<(Reconstruction, u32)> {
+    if r.exhausted() {
+        return None;
+    }
+    let b = r.u8();
+    const FILTERS: [Reconstruction; 4] = [
+        Reconstruction::Trilinear,
+        Reconstruction::CatmullRom,
+        Reconstruction::BSpline,
+        Reconstruction::BSplineInterpolating,
+    ];
+    let code = (b & 3) as u32;
+    let raw = match (b >> 2) & 7 {
+        6 => 4 + ((b >> 5) as u32),
+        7 => [u32::MAX, 0x8000_0000, 0x100, 5][(b >> 5) as usize & 3],
+        _ => code,
+    };
+    Some((FILTERS[code as usize], raw))
 }
 
 // ---------------------------------------------------------------------------
@@ -823,11 +851,14 @@ pub fn assert_same(a: &Mesh, b: &Mesh, what: &str) {
 pub fn fuzz_core(data: &[u8]) {
     let mut r = Reader::new(data);
     let case = decode_case(&mut r, false);
-    let (opts, opt_err) = decode_options(&mut r);
+    let (mut opts, opt_err) = decode_options(&mut r);
     let stop_at = match r.u8() % 8 {
         s @ 1..=4 => s as u32,
         _ => 0,
     };
+    if let Some((filter, _)) = decode_reconstruction(&mut r) {
+        opts.reconstruction = filter;
+    }
     let vol = case.laid_out_volume();
     let mut log = ProgressLog::new(stop_at);
     let res = extract_with_progress(&vol, case.iso, &opts, &mut |f| {
@@ -924,6 +955,7 @@ pub fn fuzz_c_api(data: &[u8]) {
     };
     let hostile = r.u8();
     let extra = r.u64();
+    let filter = decode_reconstruction(&mut r);
 
     let (ptr, code) = case.laid_out.raw();
     let mut vol = ffi::pmc_volume {
@@ -1096,6 +1128,16 @@ pub fn fuzz_c_api(data: &[u8]) {
                 ffi::pmc_options_set_index_offset(o, std::ptr::null()) as u32,
                 1
             );
+            if let Some((f, raw)) = filter {
+                let st = ffi::pmc_options_set_reconstruction(o, raw);
+                if raw < 4 {
+                    assert_eq!(st as u32, 0);
+                    core_opts.reconstruction = f;
+                } else {
+                    assert_eq!(st as u32, 2, "reconstruction {raw} accepted");
+                    assert!(last_error().contains("reconstruction"), "{}", last_error());
+                }
+            }
         }
     }
     // Keep it cheap: no more than 2 threads, the harness bounds the work.
