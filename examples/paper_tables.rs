@@ -143,21 +143,22 @@ fn table1(s: &SampleVolume, label: &str, inverse_eps: &[u32], max_level: u32) {
                 t
             );
             drow += &format!(
-                " {} | {} | {} |",
+                " {} | {} | {} | {} |",
                 thousands(st.samples_evaluated),
                 thousands(st.projection_failures),
-                thousands(st.faces_above_epsilon)
+                thousands(st.faces_above_epsilon),
+                thousands(st.cells_refined_on_faces_only)
             );
         }
         println!("{row}");
         diag.push(drow);
     }
-    println!("\nDiagnostics (sample points tested, projection failures, faces at max level still above ε):\n");
+    println!("\nDiagnostics (sample points tested, projection failures, faces at max level still above ε, cells refined on their faces only):\n");
     let mut head = String::from("| precision (ε) |");
     let mut sep = String::from("|---|");
     for rule in RULES {
-        head += &format!(" Rule {rule:?} tested | failures | above ε |");
-        sep += "---:|---:|---:|";
+        head += &format!(" Rule {rule:?} tested | failures | above ε | faces only |");
+        sep += "---:|---:|---:|---:|";
     }
     println!("{head}\n{sep}");
     for d in diag {

@@ -658,6 +658,19 @@ const uint8_t *pmc_mesh_triangle_levels(const struct pmc_mesh *mesh);
 pmc_status pmc_mesh_stats(const struct pmc_mesh *mesh, struct pmc_stats *out);
 
 /**
+ * Cells whose refined patch was unsound (two split points on one spot, a
+ * non-manifold edge, or a patch turned inside out) and that were refined again splitting only
+ * the edges on their faces (see `cells_refined_on_faces_only` in the
+ * README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
+ * fixed.
+ *
+ * # Safety
+ *
+ * `mesh` must be `NULL` or a live handle from `pmc_extract`.
+ */
+uint64_t pmc_mesh_cells_refined_on_faces_only(const struct pmc_mesh *mesh);
+
+/**
  * Releases a mesh and all its arrays. `NULL` is accepted and ignored.
  *
  * # Safety

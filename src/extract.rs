@@ -24,7 +24,7 @@ use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
-use crate::refine::{shared_fixed_axes, Counters, EdgeCache, Refinable, Refiner, Tri};
+use crate::refine::{shared_fixed_axes, sound_patch, Counters, EdgeCache, Refinable, Refiner, Tri};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
@@ -394,6 +394,8 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
+    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(256);
+    let mut corners: Vec<[u32; 3]> = Vec::with_capacity(96);
     let [nx, ny, _] = sh.cell_dims;
     let count_only = mode == Mode::Count;
     let cap = match mode {
@@ -578,69 +580,107 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         }
                     }
                 }
-                cache.clear();
                 let Some(fc) = sh.filter.load([i, j, k]) else {
                     out.nonfinite += 1;
                     continue;
                 };
-                let mut refiner = Refiner::<F> {
-                    cell: &fc,
-                    iso: sh.iso,
-                    epsilon: opts.epsilon,
-                    max_level: sh.max_level,
-                    rule: opts.rule,
-                    counters: &mut out.counters,
-                    stack: &mut stack,
-                    cache: &mut cache,
-                    refinable: Refinable::of_cell(&f),
-                };
-                for (n, t) in kept.iter().enumerate() {
-                    let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
-                    let mut fixed = [0u8; 3];
-                    for e in 0..3 {
-                        let (a, b) = (t[e], t[(e + 1) % 3]);
-                        let pair = if a < b { (a, b) } else { (b, a) };
-                        let boundary = uses.iter().any(|u| u.0 == pair && u.1 == 1);
-                        if boundary {
-                            fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
+                let refinable = Refinable::of_cell(&f);
+                let (t_start, v_start) = (out.tris.len(), out.verts.len());
+                let before = out.counters.clone();
+                // Second attempt (only when the first gave an unsound patch):
+                // interior edges and centres stay whole. Edges on the cell's
+                // faces decide as before, so neighbours still match.
+                for attempt in 0..2 {
+                    cache.clear();
+                    let mut refiner = Refiner::<F> {
+                        cell: &fc,
+                        iso: sh.iso,
+                        epsilon: opts.epsilon,
+                        max_level: sh.max_level,
+                        rule: opts.rule,
+                        counters: &mut out.counters,
+                        stack: &mut stack,
+                        cache: &mut cache,
+                        refinable: if attempt == 0 {
+                            refinable
+                        } else {
+                            Refinable {
+                                interior: false,
+                                ..refinable
+                            }
+                        },
+                    };
+                    for (n, t) in kept.iter().enumerate() {
+                        let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
+                        let mut fixed = [0u8; 3];
+                        for e in 0..3 {
+                            let (a, b) = (t[e], t[(e + 1) % 3]);
+                            let pair = if a < b { (a, b) } else { (b, a) };
+                            let boundary = uses.iter().any(|u| u.0 == pair && u.1 == 1);
+                            if boundary {
+                                fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
+                            }
+                        }
+                        let root = Tri {
+                            v: *t,
+                            p,
+                            fixed,
+                            level: 0,
+                            near: 0,
+                        };
+                        if count_only {
+                            // Distinct ids for new points (the edge cache is
+                            // keyed by ids; 0..16 are the cell's own points).
+                            let mut next_id = 16u32;
+                            refiner.run(root, false, &mut |_| {}, &mut |_| {
+                                next_id += 1;
+                                next_id
+                            });
+                        } else {
+                            let verts = &mut out.verts;
+                            let tris = &mut out.tris;
+                            let levels = &mut out.levels;
+                            refiner.run(
+                                root,
+                                true,
+                                &mut |tri: &Tri| {
+                                    tris.push(tri.v);
+                                    levels.push(tri.level);
+                                },
+                                &mut |p: DVec3| {
+                                    let gp = cell_f + p;
+                                    let next = verts.len() as u32;
+                                    *map.entry(key(gp)).or_insert_with(|| {
+                                        verts.push(gp);
+                                        next
+                                    })
+                                },
+                            );
                         }
                     }
-                    let root = Tri {
-                        v: *t,
-                        p,
-                        fixed,
-                        level: 0,
-                        near: 0,
-                    };
-                    if count_only {
-                        // Distinct ids for new points (the edge cache is
-                        // keyed by ids; 0..16 are the cell's own points).
-                        let mut next_id = 16u32;
-                        refiner.run(root, false, &mut |_| {}, &mut |_| {
-                            next_id += 1;
-                            next_id
-                        });
-                    } else {
-                        let verts = &mut out.verts;
-                        let tris = &mut out.tris;
-                        let levels = &mut out.levels;
-                        refiner.run(
-                            root,
-                            true,
-                            &mut |tri: &Tri| {
-                                tris.push(tri.v);
-                                levels.push(tri.level);
-                            },
-                            &mut |p: DVec3| {
-                                let gp = cell_f + p;
-                                let next = verts.len() as u32;
-                                *map.entry(key(gp)).or_insert_with(|| {
-                                    verts.push(gp);
-                                    next
-                                })
-                            },
-                        );
+                    if count_only
+                        || attempt == 1
+                        || !refinable.interior
+                        || sound_patch(
+                            cell_f,
+                            &out.tris[t_start..],
+                            &out.verts,
+                            &pos_of,
+                            &mut edges,
+                            &mut corners,
+                        )
+                    {
+                        break;
                     }
+                    for v in out.verts.drain(v_start..) {
+                        map.remove(&key(v));
+                    }
+                    out.tris.truncate(t_start);
+                    out.levels.truncate(t_start);
+                    let samples = out.counters.samples;
+                    out.counters = before.clone();
+                    out.counters.samples = samples;
+                    out.counters.unsound_cells += 1;
                 }
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than
@@ -705,6 +745,7 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
         counters.splits += o.counters.splits;
         counters.failures += o.counters.failures;
         counters.above_eps += o.counters.above_eps;
+        counters.unsound_cells += o.counters.unsound_cells;
         refine_t += o.refine_time;
         total_t += o.total_time;
         // The lowest z of this slab's vertices is its bottom plane.
@@ -769,6 +810,7 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
     stats.split_points = counters.splits;
     stats.projection_failures = counters.failures;
     stats.faces_above_epsilon = counters.above_eps;
+    stats.cells_refined_on_faces_only = counters.unsound_cells;
     // Per-thread times summed; scale the split to the wall time of the pass.
     let total = total_t.as_secs_f64();
     let share = if total > 0.0 {

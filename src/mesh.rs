@@ -30,6 +30,11 @@ pub struct Stats {
     /// Output triangles at the maximum level that still had a sample point
     /// farther than epsilon.
     pub faces_above_epsilon: u64,
+    /// Cells whose refined patch was unsound (two split points on one
+    /// spot, a non-manifold edge, or a patch turned inside out) and that
+    /// were refined again splitting only the edges on their faces; their
+    /// interior edges and centres may then stay farther than epsilon.
+    pub cells_refined_on_faces_only: u64,
     /// Whether the triangle cap stopped refinement below `max_level`.
     pub budget_reached: bool,
     /// The refinement level actually used (below `max_level` when the cap

@@ -112,6 +112,9 @@ pub(crate) struct Counters {
     pub per_level: [u64; 16],
     /// Nodes of the refinement trees per level (for the triangle cap).
     pub nodes_per_level: [u64; 16],
+    /// Cells whose refined patch was unsound (see [`sound_patch`]) and
+    /// were refined again on their faces' edges only.
+    pub unsound_cells: u64,
 }
 
 /// A triangle being refined: vertex ids, local positions, fixed-axis mask
@@ -137,6 +140,69 @@ pub(crate) fn shared_fixed_axes(a: DVec3, b: DVec3) -> u8 {
         }
     }
     m
+}
+
+/// Whether a cell's refined triangles `tris` (ids into `verts`, global
+/// index coordinates) form a sound patch: no corner repeated, no two
+/// triangles on the same corners, every edge used at most once in each
+/// direction, and, unless the Marching Cubes patch (local positions
+/// `mc_pos`, three per triangle) is nearly closed, a vector area pointing
+/// the same way as the Marching Cubes patch's. `origin` is the cell's
+/// lowest corner in index coordinates. (Counting triangles that face up
+/// the filter's gradient as unsound too was tried: it removes the far
+/// folds of thin tubes but, refining those cells on their faces only,
+/// makes the atoms sample three times less accurate.) Refinement can
+/// break these where straight gradient lines from different sample points
+/// meet on `S_K`, or where it turns a tiny patch inside out; the caller
+/// then refines the cell again without interior splits.
+pub(crate) fn sound_patch(
+    origin: DVec3,
+    tris: &[[u32; 3]],
+    verts: &[DVec3],
+    mc_pos: &[DVec3],
+    edges: &mut Vec<(u32, u32)>,
+    corners: &mut Vec<[u32; 3]>,
+) -> bool {
+    edges.clear();
+    let mut area = DVec3::ZERO;
+    for t in tris {
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            return false;
+        }
+        for e in 0..3 {
+            edges.push((t[e], t[(e + 1) % 3]));
+        }
+        let p = t.map(|v| verts[v as usize] - origin);
+        area += (p[1] - p[0]).cross(p[2] - p[0]);
+    }
+    edges.sort_unstable();
+    if edges.windows(2).any(|w| w[0] == w[1]) {
+        return false;
+    }
+    // Two triangles on the same corners with opposite windings share no
+    // directed edge: compare sorted corner triples.
+    corners.clear();
+    corners.extend(tris.iter().map(|t| {
+        let mut c = *t;
+        c.sort_unstable();
+        c
+    }));
+    corners.sort_unstable();
+    if corners.windows(2).any(|w| w[0] == w[1]) {
+        return false;
+    }
+    let (mut mc_area, mut mc_abs) = (DVec3::ZERO, 0.0);
+    for p in mc_pos.chunks_exact(3) {
+        let a = (p[1] - p[0]).cross(p[2] - p[0]);
+        mc_area += a;
+        mc_abs += a.length();
+    }
+    mc_area.length() < 0.25 * mc_abs || area.dot(mc_area) > 0.0
+}
+
+/// Whether two triangles have the same three corners (in any order).
+fn same_corners(a: [DVec3; 3], b: [DVec3; 3]) -> bool {
+    a.iter().all(|p| b.contains(p))
 }
 
 #[derive(Clone, Copy)]
@@ -331,8 +397,37 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                     }
                 }
             }
+            // Split points of different edges may land on the same point of
+            // `S_K` (straight gradient lines can meet there). A child with two
+            // such corners has no area, and two children on the same corners
+            // are the two sides of a pinched-off fold: both are dropped. The
+            // edges around them are then shared by the neighbours directly,
+            // so the mesh stays closed and manifold. Positions, not ids, are
+            // compared so that counting (distinct ids) agrees with output.
+            let pos = |s: Slot| slot(s).1;
+            let mut keep = [true; 6];
+            for x in 0..n {
+                let [a, b, c] = children[x].map(pos);
+                if a == b || b == c || a == c {
+                    keep[x] = false;
+                }
+            }
+            for x in 0..n {
+                for y in x + 1..n {
+                    if keep[x]
+                        && keep[y]
+                        && same_corners(children[x].map(pos), children[y].map(pos))
+                    {
+                        keep[x] = false;
+                        keep[y] = false;
+                    }
+                }
+            }
             // Push in reverse so children come out in order.
-            for ch in children[..n].iter().rev() {
+            for (x, ch) in children[..n].iter().enumerate().rev() {
+                if !keep[x] {
+                    continue;
+                }
                 let (a, b, c) = (slot(ch[0]), slot(ch[1]), slot(ch[2]));
                 self.stack.push(Tri {
                     v: [a.0, b.0, c.0],

@@ -115,6 +115,8 @@ impl From<&Stats> for pmc_stats {
             time_assemble,
             time_normals,
             time_total,
+            // Has its own accessor: this struct's layout is fixed (ABI).
+            cells_refined_on_faces_only: _,
         } = s.clone();
         pmc_stats {
             cells,
@@ -263,6 +265,23 @@ pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_sta
         // `write_unaligned` tolerates any alignment.
         unsafe { out.write_unaligned(pmc_stats::from(&m.stats)) };
         Ok(())
+    })
+}
+
+/// Cells whose refined patch was unsound (two split points on one spot, a
+/// non-manifold edge, or a patch turned inside out) and that were refined again splitting only
+/// the edges on their faces (see `cells_refined_on_faces_only` in the
+/// README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
+/// fixed.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_cells_refined_on_faces_only(mesh: *const pmc_mesh) -> u64 {
+    value_boundary(0, || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.stats.cells_refined_on_faces_only)
     })
 }
 

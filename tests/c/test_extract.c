@@ -358,6 +358,37 @@ static void test_nonfinite_samples(void) {
     free((void *)v.data);
 }
 
+/* A cell where straight gradient lines from two split points meet on the
+ * surface: the refined patch is unsound, so the cell is refined again on
+ * its faces only, and the count says so (0 for NULL). */
+static void test_cells_refined_on_faces_only(void) {
+    static const double f[8] = {-1, -3, -1, 1, 5, 3, -3, -1};
+    static const int corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                     {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    double data[64];
+    pmc_volume v;
+    pmc_options *o = pmc_options_new();
+    pmc_mesh *m = NULL;
+    for (int i = 0; i < 64; i++) data[i] = -1.0;
+    for (int c = 0; c < 8; c++)
+        data[(corner[c][0] + 1) + 4 * (corner[c][1] + 1) + 16 * (corner[c][2] + 1)] = f[c];
+    memset(&v, 0, sizeof v);
+    v.data = data;
+    v.len = 64;
+    v.scalar_type = PMC_SCALAR_TYPE_F64;
+    v.dims[0] = v.dims[1] = v.dims[2] = 4;
+    for (int a = 0; a < 3; a++) v.spacing[a] = 1.0;
+    CHECK(pmc_mesh_cells_refined_on_faces_only(NULL) == 0);
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.01), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_max_level(o, 3), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_rule(o, PMC_RULE_B), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 1e-9, o, &m), PMC_STATUS_OK);
+    CHECK(pmc_mesh_cells_refined_on_faces_only(m) > 0);
+    CHECK(mesh_is_closed(m));
+    pmc_mesh_free(m);
+    pmc_options_free(o);
+}
+
 int main(void) {
     test_layout();
     test_sphere();
@@ -366,5 +397,6 @@ int main(void) {
     test_pieces();
     test_options_effects();
     test_nonfinite_samples();
+    test_cells_refined_on_faces_only();
     return test_finish("test_extract");
 }
