@@ -220,6 +220,31 @@ pub(crate) fn prefilter<T: Scalar>(grid: &Grid<'_, T>) -> Result<Vec<f64>, crate
     Ok(c)
 }
 
+/// Coefficients of the cubic B-spline that interpolates the samples of
+/// `volume` (the prefilter of [`crate::Reconstruction::BSplineInterpolating`]),
+/// one `f64` per sample, contiguous with x fastest, same dims. The plain
+/// B-spline ([`crate::Reconstruction::BSpline`]) of a volume made of these
+/// coefficients is the interpolating B-spline of `volume`: use it to
+/// evaluate that filter many times (e.g. with [`crate::filter::evaluate`])
+/// without prefiltering on every call. Errors: invalid volume, or out of
+/// memory for the copy.
+///
+/// ```
+/// use precisemc::{cubic::bspline_coefficients, filter::evaluate, Reconstruction, Volume};
+/// let data: Vec<f32> = (0..125).map(|n| ((n * 7919) % 13) as f32).collect();
+/// let v = Volume::new(&data, [5, 5, 5]);
+/// let c = bspline_coefficients(&v).unwrap();
+/// let cv = Volume::new(&c, [5, 5, 5]);
+/// let a = evaluate(&v, Reconstruction::BSplineInterpolating, [1, 2, 3], [0.3, 0.6, 0.1]);
+/// let b = evaluate(&cv, Reconstruction::BSpline, [1, 2, 3], [0.3, 0.6, 0.1]);
+/// let (a, b) = (a.unwrap().unwrap(), b.unwrap().unwrap());
+/// assert!((a.0 - b.0).abs() < 1e-12);
+/// ```
+pub fn bspline_coefficients(volume: &crate::Volume<'_>) -> Result<Vec<f64>, crate::Error> {
+    volume.validate()?;
+    crate::volume::with_grid!(volume, |grid| prefilter(&grid))
+}
+
 /// Solves the B-spline interpolation system of one line in place.
 fn solve_line(s: &mut [f64], cp: &mut [f64]) {
     let n = s.len();

@@ -55,54 +55,16 @@ const LEVEL: u32 = 5;
 /// that at most this many are measured (the max is then a lower bound).
 const SWEEP_LIMIT: usize = 100_000;
 
-/// Coefficients of the interpolating cubic B-spline (the prefilter of the
-/// library's `BSplineInterpolating`, written out here because the
-/// library's is private): along each axis, `(c[k-1] + 4 c[k] + c[k+1]) / 6
-/// = s[k]` with the clamped border `c[-1] = c[0]`, `c[n] = c[n-1]`. The
-/// plain B-spline of these coefficients is the interpolating one (checked
-/// by a test against the library).
+/// Coefficients of the interpolating cubic B-spline of a sample: the
+/// plain B-spline of these is the library's `BSplineInterpolating`.
 fn prefilter(data: &[f32], dims: [u64; 3]) -> Vec<f64> {
-    let d = dims.map(|n| n as usize);
-    let mut c: Vec<f64> = data.iter().map(|&v| v as f64).collect();
-    let strides = [1, d[0], d[0] * d[1]];
-    for axis in 0..3 {
-        let n = d[axis];
-        let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
-        let mut line = vec![0.0; n];
-        let mut cp = vec![0.0; n];
-        for b in 0..d[v] {
-            for a in 0..d[u] {
-                let base = a * strides[u] + b * strides[v];
-                for t in 0..n {
-                    line[t] = c[base + t * strides[axis]];
-                }
-                if n > 1 {
-                    let off = 1.0 / 6.0;
-                    let diag = |k: usize| if k == 0 || k == n - 1 { 5.0 } else { 4.0 } / 6.0;
-                    let mut m = diag(0);
-                    cp[0] = off / m;
-                    line[0] /= m;
-                    for k in 1..n {
-                        m = diag(k) - off * cp[k - 1];
-                        cp[k] = off / m;
-                        line[k] = (line[k] - off * line[k - 1]) / m;
-                    }
-                    for k in (0..n - 1).rev() {
-                        line[k] -= cp[k] * line[k + 1];
-                    }
-                }
-                for t in 0..n {
-                    c[base + t * strides[axis]] = line[t];
-                }
-            }
-        }
-    }
-    c
+    precisemc::cubic::bspline_coefficients(&Volume::new(data, dims))
+        .expect("prefilter of a valid sample")
 }
 
 /// Evaluates a filter's value and gradient at index point `p`, with the
-/// interpolating B-spline through prefiltered coefficients (the library's
-/// `evaluate` would prefilter on every call).
+/// interpolating B-spline through prefiltered coefficients (`evaluate`
+/// itself would prefilter on every call).
 struct FilterEval<'a> {
     volume: Volume<'a>,
     coefficients: Volume<'a>,
