@@ -319,6 +319,7 @@ void vtkPreciseMarchingCubes::ResetStatistics()
   this->NumberOfSplitPoints = 0;
   this->NumberOfProjectionFailures = 0;
   this->NumberOfFacesAboveEpsilon = 0;
+  this->NumberOfCellsRefinedOnFacesOnly = 0;
   this->BudgetReached = false;
   this->ExecutionTime = 0.0;
 }
@@ -716,6 +717,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     this->NumberOfSplitPoints += stats.split_points;
     this->NumberOfProjectionFailures += stats.projection_failures;
     this->NumberOfFacesAboveEpsilon += stats.faces_above_epsilon;
+    this->NumberOfCellsRefinedOnFacesOnly += pmc_mesh_cells_refined_on_faces_only(mesh.get());
     this->BudgetReached = this->BudgetReached || stats.budget_reached;
     totalPoints += selection.NumberOfPoints;
     totalTriangles += selection.NumberOfTriangles;
@@ -1126,6 +1128,8 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "NumberOfSplitPoints: " << this->NumberOfSplitPoints << "\n";
   os << indent << "NumberOfProjectionFailures: " << this->NumberOfProjectionFailures << "\n";
   os << indent << "NumberOfFacesAboveEpsilon: " << this->NumberOfFacesAboveEpsilon << "\n";
+  os << indent << "NumberOfCellsRefinedOnFacesOnly: " << this->NumberOfCellsRefinedOnFacesOnly
+     << "\n";
   os << indent << "BudgetReached: " << (this->BudgetReached ? "true" : "false") << "\n";
   os << indent << "ExecutionTime: " << this->ExecutionTime << "\n";
   os << indent << "NumberOfExecutions: " << this->NumberOfExecutions << "\n";

@@ -419,6 +419,10 @@ public:
    *   isosurface was found along the gradient line.
    * - NumberOfFacesAboveEpsilon: triangles at MaxLevel still farther than
    *   Epsilon at a sample point.
+   * - NumberOfCellsRefinedOnFacesOnly: cells whose refined patch was
+   *   unsound (split points meeting, a patch turned inside out) and that
+   *   were refined again on their faces' edges only (their interior may
+   *   stay farther than Epsilon).
    * - BudgetReached: whether MaxTriangles (or the library's safety cap)
    *   stopped refinement early for some contour value.
    * - ExecutionTime: wall time of the library calls, seconds.
@@ -433,6 +437,7 @@ public:
   vtkGetMacro(NumberOfSplitPoints, vtkTypeUInt64);
   vtkGetMacro(NumberOfProjectionFailures, vtkTypeUInt64);
   vtkGetMacro(NumberOfFacesAboveEpsilon, vtkTypeUInt64);
+  vtkGetMacro(NumberOfCellsRefinedOnFacesOnly, vtkTypeUInt64);
   vtkGetMacro(BudgetReached, bool);
   vtkGetMacro(ExecutionTime, double);
   ///@}
@@ -480,6 +485,7 @@ protected:
   vtkTypeUInt64 NumberOfSplitPoints;
   vtkTypeUInt64 NumberOfProjectionFailures;
   vtkTypeUInt64 NumberOfFacesAboveEpsilon;
+  vtkTypeUInt64 NumberOfCellsRefinedOnFacesOnly;
   bool BudgetReached;
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;

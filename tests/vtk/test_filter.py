@@ -645,3 +645,22 @@ def test_cubic_pieces_need_the_ghost_layer(name):
     serial = coordinate_triangles(whole.GetOutput())
     assert union.shape != serial.shape or not np.array_equal(
         union[np.lexsort(union.T[::-1])], serial)
+
+
+def test_cells_refined_on_faces_only_are_counted():
+    # A cell where two split points meet on the surface (straight gradient
+    # lines cross there): the library refines it again on its faces only,
+    # and the filter reports the count; a smooth sphere needs none.
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    values = np.full((4, 4, 4), -1.0)
+    for (i, j, k), v in zip(corners, [-1, -3, -1, 1, 5, 3, -3, -1]):
+        values[k + 1, j + 1, i + 1] = v
+    f = precise(image_from_array(values), [1e-9], Epsilon=0.01, MaxLevel=3, Rule=3)
+    assert f.GetNumberOfCellsRefinedOnFacesOnly() > 0
+    assert f.GetOutput().GetNumberOfCells() > 0
+    n = 12
+    g = np.mgrid[0:n, 0:n, 0:n].astype(float)
+    sphere = np.sqrt(((g - (n - 1) / 2) ** 2).sum(axis=0))
+    s = precise(image_from_array(sphere), [4.0], Epsilon=0.01, MaxLevel=3, Rule=3)
+    assert s.GetNumberOfRefinedTriangles() > s.GetNumberOfMCTriangles()
+    assert s.GetNumberOfCellsRefinedOnFacesOnly() == 0
