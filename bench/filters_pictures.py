@@ -6,7 +6,7 @@ shared colour bar.
 
 Usage (Debian's VTK; off-screen rendering needs a display):
     cargo run --release --example filters          # writes target/filters/*.vtk
-    xvfb-run -a /usr/bin/python3 bench/filters_pictures.py [IN_DIR] [OUT_PNG]
+    scripts/with-xvfb.sh /usr/bin/python3 bench/filters_pictures.py [IN_DIR] [OUT_PNG]
 Defaults: target/filters and bench/results/filters_ml.png.
 """
 

@@ -1,15 +1,16 @@
-// Finding an X display for off-screen rendering: re-execution under
-// xvfb-run, or a private Xvfb started with -displayfd (the server writes
-// its display number to a pipe once it accepts connections: no guessing of
-// free numbers, no sleeping).
+// Finding an X display for off-screen rendering: a private Xvfb started
+// with -displayfd (the server picks a free display itself and writes its
+// number to a pipe once it accepts connections). Unlike "xvfb-run -a",
+// which guesses a free number from lock files, this cannot collide with
+// another X server started at the same moment. -noreset: otherwise the
+// server resets when its last client disconnects and refuses the clients
+// that connect meanwhile (VTK then aborts: "bad X server connection").
 #include "Display.h"
 
 #include "Common.h"
 
-#include <cstdio>
 #include <cstdlib>
 #include <string>
-#include <vector>
 
 #include <fcntl.h>
 #include <signal.h>
@@ -21,10 +22,6 @@ namespace pmcapp
 {
 namespace
 {
-
-// Set in the environment of the re-executed tool, so that it does not
-// re-execute again if xvfb-run did not provide a display.
-const char* const UnderXvfbRun = "PRECISEMC_UNDER_XVFB_RUN";
 
 pid_t XvfbPid = 0;
 
@@ -61,41 +58,6 @@ std::string FindProgram(const std::string& name)
   return std::string();
 }
 
-std::string SelfPath(const char* argv0)
-{
-  char buffer[4096];
-  ssize_t n = readlink("/proc/self/exe", buffer, sizeof(buffer) - 1);
-  if (n > 0)
-  {
-    buffer[n] = '\0';
-    return buffer;
-  }
-  return argv0;
-}
-
-// Replaces this process by "xvfb-run -a <self> <args>"; returns only if
-// exec fails.
-void ReexecUnderXvfbRun(const std::string& xvfbRun, int argc, char* argv[])
-{
-  std::vector<std::string> args = { xvfbRun, "-a", "-s",
-    "-screen 0 2048x2048x24 -nolisten tcp", SelfPath(argv[0]) };
-  for (int i = 1; i < argc; ++i)
-  {
-    args.emplace_back(argv[i]);
-  }
-  std::vector<char*> raw;
-  for (auto& a : args)
-  {
-    raw.push_back(&a[0]);
-  }
-  raw.push_back(nullptr);
-  setenv(UnderXvfbRun, "1", 1);
-  std::fflush(stdout);
-  std::fflush(stderr);
-  execv(xvfbRun.c_str(), raw.data());
-  unsetenv(UnderXvfbRun);
-}
-
 // Starts Xvfb on a free display and points $DISPLAY at it.
 void StartXvfb(const std::string& xvfb)
 {
@@ -125,7 +87,7 @@ void StartXvfb(const std::string& xvfb)
     }
     std::string fd = std::to_string(fds[1]);
     execl(xvfb.c_str(), "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "2048x2048x24",
-      "-nolisten", "tcp", static_cast<char*>(nullptr));
+      "-nolisten", "tcp", "-noreset", static_cast<char*>(nullptr));
     _exit(127);
   }
   close(fds[1]);
@@ -148,26 +110,18 @@ void StartXvfb(const std::string& xvfb)
 
 }
 
-void EnsureDisplay(int argc, char* argv[])
+void EnsureDisplay()
 {
   const char* display = std::getenv("DISPLAY");
   if (display && *display)
   {
     return;
   }
-  if (!std::getenv(UnderXvfbRun))
-  {
-    std::string xvfbRun = FindProgram("xvfb-run");
-    if (!xvfbRun.empty())
-    {
-      ReexecUnderXvfbRun(xvfbRun, argc, argv);
-    }
-  }
   std::string xvfb = FindProgram("Xvfb");
   if (xvfb.empty())
   {
-    throw Error("cannot render --compare/--distance pictures: no $DISPLAY and neither "
-                "xvfb-run nor Xvfb is installed (Debian: apt-get install xvfb xauth)");
+    throw Error("cannot render --compare/--distance pictures: no $DISPLAY and Xvfb "
+                "is not installed (Debian: apt-get install xvfb)");
   }
   StartXvfb(xvfb);
 }

@@ -6,11 +6,10 @@
 namespace pmcapp
 {
 
-// Returns when $DISPLAY is set. Otherwise re-executes the tool under
-// "xvfb-run -a" (does not return), or, without xvfb-run (or if the tool
-// already runs under it), starts Xvfb itself for the life of the process
-// and sets $DISPLAY. Throws pmcapp::Error when neither exists.
-void EnsureDisplay(int argc, char* argv[]);
+// Returns when $DISPLAY is set. Otherwise starts Xvfb (found on $PATH) on
+// a free display for the life of the process and sets $DISPLAY. Throws
+// pmcapp::Error when Xvfb is missing or does not start.
+void EnsureDisplay();
 
 }
 

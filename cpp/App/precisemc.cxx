@@ -278,7 +278,7 @@ int main(int argc, char* argv[])
     const bool pictures = !o.Compare.empty() || !o.Distance.empty();
     if (pictures)
     {
-      pmcapp::EnsureDisplay(argc, argv);
+      pmcapp::EnsureDisplay();
     }
 
     std::vector<DataSet> sets = LoadDataSets(o);

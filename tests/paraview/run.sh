@@ -32,6 +32,9 @@ run_checks() {
     if [ "$status" -ne 0 ] || [ "$oks" -eq 0 ]; then
         failed=$((failed + 1))
         echo "  [$name] FAILED (exit status $status); last lines of $log:"
+        # Every rank's own error lines first: the tail often shows only
+        # the rank that was killed after another one failed.
+        grep -E 'ERR\||FATL\||X server|Abort' "$log" | head -n 10 | sed 's/^/    /'
         tail -n 25 "$log" | sed 's/^/    /'
     fi
     logs+=("$log")
@@ -68,7 +71,7 @@ else
 fi
 
 # A picture of a 2-rank run (as docs/paraview.png), rendered under Xvfb.
-run_checks screenshot xvfb-run -a mpiexec -n 2 --oversubscribe pvbatch paraview/screenshot.py \
+run_checks screenshot scripts/with-xvfb.sh mpiexec -n 2 --oversubscribe pvbatch paraview/screenshot.py \
     "$PMC_PARAVIEW_PLUGIN" "$out/screenshot.png"
 
 echo "paraview tests took $((SECONDS - start)) s"
