@@ -39,7 +39,12 @@ impl Hasher for KeyHasher {
         self.0
     }
     fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
+        // Keys arrive as one slice of 24 bytes: mix them a word at a time.
+        let mut words = bytes.chunks_exact(8);
+        for w in &mut words {
+            self.write_u64(u64::from_le_bytes(w.try_into().unwrap()));
+        }
+        for b in words.remainder() {
             self.write_u64(*b as u64);
         }
     }
@@ -388,14 +393,15 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     let t0 = Instant::now();
     let mut out = SlabOut::default();
     let mut map: KeyMap<u32> = KeyMap::default();
+    let mut local: KeyMap<u32> = KeyMap::default();
     let mut patch = Patch::default();
     let mut stack: Vec<Tri> = Vec::with_capacity(64);
     let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(256);
-    let mut corners: Vec<[u32; 3]> = Vec::with_capacity(96);
+    let mut edges: Vec<u64> = Vec::with_capacity(256);
+    let mut corners: Vec<u128> = Vec::with_capacity(96);
     let [nx, ny, _] = sh.cell_dims;
     let count_only = mode == Mode::Count;
     let cap = match mode {
@@ -587,6 +593,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 let refinable = Refinable::of_cell(&f);
                 let (t_start, v_start) = (out.tris.len(), out.verts.len());
                 let before = out.counters.clone();
+                local.clear();
                 // Second attempt (only when the first gave an unsound patch):
                 // interior edges and centres stay whole. Edges on the cell's
                 // faces decide as before, so neighbours still match.
@@ -638,6 +645,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             });
                         } else {
                             let verts = &mut out.verts;
+                            let (map, local) = (&mut map, &mut local);
                             let tris = &mut out.tris;
                             let levels = &mut out.levels;
                             refiner.run(
@@ -650,7 +658,14 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                 &mut |p: DVec3| {
                                     let gp = cell_f + p;
                                     let next = verts.len() as u32;
-                                    *map.entry(key(gp)).or_insert_with(|| {
+                                    // A point inside the open cell belongs to
+                                    // no other cell: a small per-cell map
+                                    // welds it (same ids, less memory
+                                    // traffic than the slab's map).
+                                    let inner =
+                                        p.cmpgt(DVec3::ZERO).all() && p.cmplt(DVec3::ONE).all();
+                                    let m = if inner { &mut *local } else { &mut *map };
+                                    *m.entry(key(gp)).or_insert_with(|| {
                                         verts.push(gp);
                                         next
                                     })
@@ -675,6 +690,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     for v in out.verts.drain(v_start..) {
                         map.remove(&key(v));
                     }
+                    local.clear();
                     out.tris.truncate(t_start);
                     out.levels.truncate(t_start);
                     let samples = out.counters.samples;

@@ -160,8 +160,8 @@ pub(crate) fn sound_patch(
     tris: &[[u32; 3]],
     verts: &[DVec3],
     mc_pos: &[DVec3],
-    edges: &mut Vec<(u32, u32)>,
-    corners: &mut Vec<[u32; 3]>,
+    edges: &mut Vec<u64>,
+    corners: &mut Vec<u128>,
 ) -> bool {
     edges.clear();
     let mut area = DVec3::ZERO;
@@ -169,8 +169,10 @@ pub(crate) fn sound_patch(
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             return false;
         }
+        // Directed edges packed into one word each: sorting words is
+        // cheaper than sorting pairs.
         for e in 0..3 {
-            edges.push((t[e], t[(e + 1) % 3]));
+            edges.push((t[e] as u64) << 32 | t[(e + 1) % 3] as u64);
         }
         let p = t.map(|v| verts[v as usize] - origin);
         area += (p[1] - p[0]).cross(p[2] - p[0]);
@@ -185,7 +187,7 @@ pub(crate) fn sound_patch(
     corners.extend(tris.iter().map(|t| {
         let mut c = *t;
         c.sort_unstable();
-        c
+        (c[0] as u128) << 64 | (c[1] as u128) << 32 | c[2] as u128
     }));
     corners.sort_unstable();
     if corners.windows(2).any(|w| w[0] == w[1]) {
@@ -352,15 +354,18 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let mut children: [[Slot; 3]; 6] = [[Slot::C; 3]; 6];
             let mut n = 0;
             if centre.is_some() {
-                let mut ring: Vec<Slot> = Vec::with_capacity(6);
+                let mut ring = [Slot::C; 6];
+                let mut len = 0;
                 for e in 0..3 {
-                    ring.push(Slot::V(e));
+                    ring[len] = Slot::V(e);
+                    len += 1;
                     if mids[e].is_some() {
-                        ring.push(Slot::M(e));
+                        ring[len] = Slot::M(e);
+                        len += 1;
                     }
                 }
-                for k in 0..ring.len() {
-                    children[n] = [ring[k], ring[(k + 1) % ring.len()], Slot::C];
+                for k in 0..len {
+                    children[n] = [ring[k], ring[(k + 1) % len], Slot::C];
                     n += 1;
                 }
             } else {
