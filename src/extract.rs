@@ -136,6 +136,9 @@ struct SlabOut {
     mc_tris: u64,
     ambiguous: u64,
     nonfinite: u64,
+    /// Bytes of scratch buffers that could not be allocated (the slab
+    /// stopped before its first cell; the extraction fails).
+    scratch_failed: usize,
     counters: Counters,
     refine_time: Duration,
     total_time: Duration,
@@ -307,6 +310,9 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
             if cancel.load(Ordering::Relaxed) {
                 return Err(Error::Aborted);
             }
+            if let Some(o) = outs.iter().find(|o| o.scratch_failed > 0) {
+                return Err(Error::OutOfMemory(o.scratch_failed));
+            }
             Ok(outs)
         };
 
@@ -410,14 +416,50 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     };
     let mut reported = 0u64;
     let opts = sh.options;
-    // Four sample rows around the current row of cells: (j, k), (j+1, k),
-    // (j, k+1), (j+1, k+1); the case index comes from their inside bits.
+    // Inside bits and per-row finiteness of the two sample layers of the
+    // current cell layer (by z parity): each layer is read once and serves
+    // two cell layers.
     let nxs = nx + 1;
-    let mut rows = vec![vec![0.0f64; nxs]; 4];
-    let mut ins = vec![vec![0u8; nxs]; 4];
+    let layer_len = (ny + 1) * nxs;
+    // Then the ids of the points on grid edges, stamped with the edge's z
+    // index in the high half (so nothing needs clearing between layers): x
+    // and y edges of the two sample layers (by z parity), z edges of the
+    // current cell layer. They only save map lookups: every point still
+    // enters the map once, so welding is unchanged. This scratch grows with
+    // the layer's area (about 42 bytes per sample), so it is allocated
+    // fallibly.
+    let scratch = (|| {
+        Some((
+            [filled(layer_len, 0u8)?, filled(layer_len, 0u8)?],
+            [
+                filled(nx * (ny + 1), u64::MAX)?,
+                filled(nx * (ny + 1), u64::MAX)?,
+            ],
+            [filled(nxs * ny, u64::MAX)?, filled(nxs * ny, u64::MAX)?],
+            filled(nxs * (ny + 1), u64::MAX)?,
+        ))
+    })();
+    let Some((mut insides, mut edge_x, mut edge_y, mut edge_z)) = scratch else {
+        out.scratch_failed =
+            layer_len * 2 + (nx * (ny + 1) * 2 + nxs * ny * 2 + nxs * (ny + 1)) * 8;
+        return out;
+    };
+    let mut finite = [vec![true; ny + 1], vec![true; ny + 1]];
+    let read_layer = |z: usize, ins: &mut [u8], fin: &mut [bool]| {
+        for (jj, bits) in ins.chunks_exact_mut(nxs).enumerate() {
+            fin[jj] = sh.grid.row_inside(jj, z, sh.iso, bits);
+        }
+    };
     let mut cases = vec![0u8; nx];
-    let mut fin = [true; 4];
     'layers: for k in k0..k1 {
+        let (lo, hi) = (k & 1, (k + 1) & 1);
+        if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
+            break 'layers;
+        }
+        if k == k0 {
+            read_layer(k, &mut insides[lo], &mut finite[lo]);
+        }
+        read_layer(k + 1, &mut insides[hi], &mut finite[hi]);
         for j in 0..ny {
             if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
                 break 'layers;
@@ -425,26 +467,23 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
             if !count_only && report_emitted(sh, &out, &mut reported, cap) {
                 break 'layers;
             }
-            if j == 0 {
-                fin[0] = sh.grid.row_into(0, k, 0.0, &mut rows[0]);
-                fin[2] = sh.grid.row_into(0, k + 1, 0.0, &mut rows[2]);
-            } else {
-                rows.swap(0, 1);
-                rows.swap(2, 3);
-                fin.swap(0, 1);
-                fin.swap(2, 3);
-                ins.swap(0, 1);
-                ins.swap(2, 3);
+            // Four sample rows around the current row of cells: (j, k),
+            // (j+1, k), (j, k+1), (j+1, k+1).
+            fn row<T>(layer: &[T], jj: usize, n: usize) -> &[T] {
+                &layer[jj * n..(jj + 1) * n]
             }
-            fin[1] = sh.grid.row_into(j + 1, k, 0.0, &mut rows[1]);
-            fin[3] = sh.grid.row_into(j + 1, k + 1, 0.0, &mut rows[3]);
-            for r in 0..4 {
-                if j == 0 || r == 1 || r == 3 {
-                    for (b, v) in ins[r].iter_mut().zip(&rows[r]) {
-                        *b = (*v >= sh.iso) as u8;
-                    }
-                }
-            }
+            let ins = [
+                row(&insides[lo], j, nxs),
+                row(&insides[lo], j + 1, nxs),
+                row(&insides[hi], j, nxs),
+                row(&insides[hi], j + 1, nxs),
+            ];
+            let fin = [
+                finite[lo][j],
+                finite[lo][j + 1],
+                finite[hi][j],
+                finite[hi][j + 1],
+            ];
             let all_finite = fin.iter().all(|&x| x);
             case_row(&ins, &mut cases);
             let mut next = 0;
@@ -463,15 +502,18 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 if all_finite && (case == 0 || case == 255) {
                     continue;
                 }
+                // Only cells that the surface crosses (or with a non-finite
+                // sample) get here: read their corners from the volume.
+                let g = &sh.grid;
                 let c = [
-                    rows[0][i],
-                    rows[0][i + 1],
-                    rows[1][i + 1],
-                    rows[1][i],
-                    rows[2][i],
-                    rows[2][i + 1],
-                    rows[3][i + 1],
-                    rows[3][i],
+                    g.get(i, j, k),
+                    g.get(i + 1, j, k),
+                    g.get(i + 1, j + 1, k),
+                    g.get(i, j + 1, k),
+                    g.get(i, j, k + 1),
+                    g.get(i + 1, j, k + 1),
+                    g.get(i + 1, j + 1, k + 1),
+                    g.get(i, j + 1, k + 1),
                 ];
                 if !all_finite && !c.iter().all(|v| v.is_finite()) {
                     out.nonfinite += 1;
@@ -541,11 +583,28 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             if count_only {
                                 ids[e] = e as u32;
                             } else {
-                                let next = out.verts.len() as u32;
-                                ids[e] = *map.entry(key(gp)).or_insert_with(|| {
-                                    out.verts.push(gp);
-                                    next
-                                });
+                                // The grid edge's id, if a cell before this
+                                // one has looked it up: the same key, so the
+                                // map would answer the same.
+                                let (ci, cj, ck) =
+                                    (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
+                                let (slots, at) = match ax {
+                                    0 => (&mut edge_x[ck & 1], cj * nx + ci),
+                                    1 => (&mut edge_y[ck & 1], cj * nxs + ci),
+                                    _ => (&mut edge_z, cj * nxs + ci),
+                                };
+                                let entry = slots[at];
+                                ids[e] = if entry >> 32 == ck as u64 {
+                                    entry as u32
+                                } else {
+                                    let next = out.verts.len() as u32;
+                                    let id = *map.entry(key(gp)).or_insert_with(|| {
+                                        out.verts.push(gp);
+                                        next
+                                    });
+                                    slots[at] = (ck as u64) << 32 | id as u64;
+                                    id
+                                };
                             }
                         }
                         tid[slot] = ids[e];
@@ -728,7 +787,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
 /// rows (`ins[0]` = (j, k), `ins[1]` = (j+1, k), `ins[2]` = (j, k+1),
 /// `ins[3]` = (j+1, k+1)), in VTK corner order. Slices cut to the row's
 /// length let the compiler drop bounds checks and vectorise the loop.
-fn case_row(ins: &[Vec<u8>], cases: &mut [u8]) {
+fn case_row(ins: &[&[u8]; 4], cases: &mut [u8]) {
     let n = cases.len();
     let (a0, b0) = (&ins[0][..n], &ins[0][1..=n]);
     let (a1, b1) = (&ins[1][..n], &ins[1][1..=n]);
@@ -865,6 +924,14 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
     stats.time_refine = refine_t.as_secs_f64();
     stats.time_mc = (total_t - refine_t.min(total_t)).as_secs_f64();
     Ok(mesh)
+}
+
+/// A vector of `n` copies of `value`, or `None` when the allocation fails.
+fn filled<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).ok()?;
+    v.resize(n, value);
+    Some(v)
 }
 
 fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {

@@ -356,15 +356,16 @@ impl<'a, T: Scalar> Grid<'a, T> {
         }
     }
 
-    /// Copies row `(j, k)` into `out` (length `dims[0]`) as `f64 - shift`,
-    /// returning whether every value is finite.
+    /// Inside bits of row `(j, k)` (`bits[i]` = 1 where the sample is at
+    /// or above `iso`; `bits` has length `dims[0]`), returning whether every
+    /// value is finite.
     #[inline]
-    pub(crate) fn row_into(&self, j: usize, k: usize, shift: f64, out: &mut [f64]) -> bool {
-        assert!(j < self.dims[1] && k < self.dims[2] && out.len() == self.dims[0]);
+    pub(crate) fn row_inside(&self, j: usize, k: usize, iso: f64, bits: &mut [u8]) -> bool {
+        assert!(j < self.dims[1] && k < self.dims[2] && bits.len() == self.dims[0]);
         let base = self.offset + j as isize * self.strides[1] + k as isize * self.strides[2];
         let s0 = self.strides[0];
         let mut finite = true;
-        for (i, o) in out.iter_mut().enumerate() {
+        for (i, b) in bits.iter_mut().enumerate() {
             // SAFETY: `Volume::validate` proved every in-range index lies in
             // the buffer; j and k are asserted above and i < dims[0].
             let v = unsafe {
@@ -375,7 +376,7 @@ impl<'a, T: Scalar> Grid<'a, T> {
             if T::FLOAT {
                 finite &= v.is_finite();
             }
-            *o = v - shift;
+            *b = (v >= iso) as u8;
         }
         finite
     }
