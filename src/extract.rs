@@ -364,7 +364,8 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
     stats.effective_max_level = max_level;
 
     let t_asm = Instant::now();
-    let mut mesh = assemble(outs, volume, &mut stats)?;
+    let passes_wall = (t_asm - start).as_secs_f64();
+    let mut mesh = assemble(outs, volume, passes_wall, &mut stats)?;
     stats.time_assemble = t_asm.elapsed().as_secs_f64();
     if !reporter.report(0.97) {
         return Err(Error::Aborted);
@@ -504,17 +505,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 }
                 // Only cells that the surface crosses (or with a non-finite
                 // sample) get here: read their corners from the volume.
-                let g = &sh.grid;
-                let c = [
-                    g.get(i, j, k),
-                    g.get(i + 1, j, k),
-                    g.get(i + 1, j + 1, k),
-                    g.get(i, j + 1, k),
-                    g.get(i, j, k + 1),
-                    g.get(i + 1, j, k + 1),
-                    g.get(i + 1, j + 1, k + 1),
-                    g.get(i, j + 1, k + 1),
-                ];
+                let c = sh.grid.corners([i, j, k]);
                 if !all_finite && !c.iter().all(|v| v.is_finite()) {
                     out.nonfinite += 1;
                     continue;
@@ -827,8 +818,14 @@ fn report_emitted<T: Scalar, F: ReconstructionFilter>(
 
 /// Welds the slabs' vertices (only points on a slab's bottom plane can
 /// already exist in the slab before it), numbers them in order of first
-/// use, and builds the output arrays.
-fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Result<Mesh, Error> {
+/// use, and builds the output arrays; splits `passes_wall` (seconds) into
+/// the Marching Cubes and refinement times.
+fn assemble(
+    outs: Vec<SlabOut>,
+    volume: &Volume<'_>,
+    passes_wall: f64,
+    stats: &mut Stats,
+) -> Result<Mesh, Error> {
     let nv: usize = outs.iter().map(|o| o.verts.len()).sum();
     let nt: usize = outs.iter().map(|o| o.tris.len()).sum();
     let mut mesh = Mesh::default();
@@ -913,16 +910,16 @@ fn assemble(outs: Vec<SlabOut>, volume: &Volume<'_>, stats: &mut Stats) -> Resul
     stats.projection_failures = counters.failures;
     stats.faces_above_epsilon = counters.above_eps;
     stats.cells_refined_on_faces_only = counters.unsound_cells;
-    // Per-thread times summed; scale the split to the wall time of the pass.
+    // The slabs' times are per thread and add up over threads: split the
+    // passes' wall time in their proportion.
     let total = total_t.as_secs_f64();
     let share = if total > 0.0 {
-        refine_t.as_secs_f64() / total
+        (refine_t.as_secs_f64() / total).min(1.0)
     } else {
         0.0
     };
-    let _ = share;
-    stats.time_refine = refine_t.as_secs_f64();
-    stats.time_mc = (total_t - refine_t.min(total_t)).as_secs_f64();
+    stats.time_refine = passes_wall * share;
+    stats.time_mc = passes_wall - stats.time_refine;
     Ok(mesh)
 }
 

@@ -111,18 +111,8 @@ impl<'a, T: Scalar> Trilinear<'a, T> {
 
     /// The eight corner samples of a cell, in VTK corner order.
     #[inline(always)]
-    pub(crate) fn corners(&self, [i, j, k]: [usize; 3]) -> [f64; 8] {
-        let g = &self.grid;
-        [
-            g.get(i, j, k),
-            g.get(i + 1, j, k),
-            g.get(i + 1, j + 1, k),
-            g.get(i, j + 1, k),
-            g.get(i, j, k + 1),
-            g.get(i + 1, j, k + 1),
-            g.get(i + 1, j + 1, k + 1),
-            g.get(i, j + 1, k + 1),
-        ]
+    pub(crate) fn corners(&self, cell: [usize; 3]) -> [f64; 8] {
+        self.grid.corners(cell)
     }
 }
 

@@ -381,6 +381,22 @@ impl<'a, T: Scalar> Grid<'a, T> {
         finite
     }
 
+    /// The eight corner samples of cell `[i, j, k]` (local indices), as
+    /// f64, in VTK corner order.
+    #[inline(always)]
+    pub(crate) fn corners(&self, [i, j, k]: [usize; 3]) -> [f64; 8] {
+        [
+            self.get(i, j, k),
+            self.get(i + 1, j, k),
+            self.get(i + 1, j + 1, k),
+            self.get(i, j + 1, k),
+            self.get(i, j, k + 1),
+            self.get(i + 1, j, k + 1),
+            self.get(i + 1, j + 1, k + 1),
+            self.get(i, j + 1, k + 1),
+        ]
+    }
+
     /// Sample at local indices, as f64.
     #[inline(always)]
     pub(crate) fn get(&self, i: usize, j: usize, k: usize) -> f64 {

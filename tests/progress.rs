@@ -208,3 +208,30 @@ fn triangle_cap_is_respected_and_watertight() {
     assert_eq!(m.stats.effective_max_level, 0);
     assert_eq!(m.triangles.len(), mc.triangles.len());
 }
+
+/// The phase times are wall times that add up to at most the total, with
+/// 1 and 2 threads (the slabs' per-thread times are scaled to the wall
+/// time of the passes, so two threads do not count twice).
+#[test]
+fn phase_times_fit_in_the_total() {
+    let (dims, v) = big();
+    let vol = Volume::new(&v, dims_u64(dims));
+    for threads in [1, 2] {
+        let m = extract(&vol, 0.0, &heavy_opts(threads)).unwrap();
+        let s = &m.stats;
+        let parts = [s.time_mc, s.time_refine, s.time_assemble, s.time_normals];
+        assert!(
+            parts.iter().all(|t| *t >= 0.0),
+            "{threads} threads: {parts:?}"
+        );
+        assert!(
+            s.time_refine > 0.0,
+            "{threads} threads: refinement not timed"
+        );
+        assert!(
+            parts.iter().sum::<f64>() <= s.time_total * (1.0 + 1e-9),
+            "{threads} threads: {parts:?} add up to more than {}",
+            s.time_total
+        );
+    }
+}
