@@ -24,6 +24,7 @@ use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
+use crate::project::edge_crossing;
 use crate::refine::{shared_fixed_axes, sound_patch, Counters, EdgeCache, Refinable, Refiner, Tri};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
@@ -522,6 +523,13 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 if cell_triangles(&f, opts.topology, &mut patch) {
                     out.ambiguous += 1;
                 }
+                // With a filter that is not linear on grid edges, the
+                // refinement starts from crossings on its own isosurface.
+                let edge_filter = if sh.refine && !F::LINEAR_ON_EDGES {
+                    sh.filter.load([i, j, k])
+                } else {
+                    None
+                };
                 let cell_g = [
                     sh.index_offset[0] + i as i64,
                     sh.index_offset[1] + j as i64,
@@ -562,12 +570,18 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                     .clamp(0.0, 1.0);
                             }
                             let ca = CORNERS[a as usize];
+                            let ax = EDGE_AXIS[e] as usize;
+                            if let Some(fc) = &edge_filter {
+                                let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
+                                if let Some(s) = edge_crossing::<F>(fc, sh.iso, corner, ax) {
+                                    t = s;
+                                }
+                            }
                             let mut g = [
                                 (cell_g[0] + ca[0] as i64) as f64,
                                 (cell_g[1] + ca[1] as i64) as f64,
                                 (cell_g[2] + ca[2] as i64) as f64,
                             ];
-                            let ax = EDGE_AXIS[e] as usize;
                             g[ax] += t;
                             let gp = DVec3::from_array(g);
                             loc[e] = gp - cell_f;
@@ -641,7 +655,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         }
                     }
                 }
-                let Some(fc) = sh.filter.load([i, j, k]) else {
+                let Some(fc) = edge_filter.or_else(|| sh.filter.load([i, j, k])) else {
                     out.nonfinite += 1;
                     continue;
                 };

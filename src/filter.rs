@@ -17,6 +17,13 @@ pub trait ReconstructionFilter: Sync {
     /// What one cell needs for evaluation (e.g. its corner samples).
     type Cell: Copy + Send;
 
+    /// Whether the filter is linear along grid edges between the two
+    /// samples (trilinear), so that Marching Cubes' edge crossings already
+    /// lie on its isosurface. Otherwise refinement first moves each
+    /// crossing along its grid edge onto the filter's isosurface, where the
+    /// filter brackets one there. Default: `false`.
+    const LINEAR_ON_EDGES: bool = false;
+
     /// Loads cell `(i, j, k)` (local cell indices). `None` when a sample
     /// the cell needs is not finite.
     fn load(&self, cell: [usize; 3]) -> Option<Self::Cell>;
@@ -118,6 +125,7 @@ impl<'a, T: Scalar> Trilinear<'a, T> {
 
 impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
     type Cell = [f64; 8];
+    const LINEAR_ON_EDGES: bool = true;
 
     fn load(&self, cell: [usize; 3]) -> Option<[f64; 8]> {
         let c = self.corners(cell);

@@ -290,9 +290,36 @@ pub fn seems_far<F: ReconstructionFilter>(
     q0 != 0.0 && (qa < 0.0) == (q0 < 0.0) && (qb < 0.0) == (q0 < 0.0) && qa != 0.0 && qb != 0.0
 }
 
+/// Where the filter crosses `iso` on the grid edge of `cell` from the
+/// local corner `corner` along `axis`, as a parameter in `[0, 1]`; `None`
+/// when its values at the two ends do not bracket `iso`. Evaluates the
+/// filter on the edge only, so every cell around the edge finds the same
+/// bits (face consistency, see [`crate::filter`]).
+pub fn edge_crossing<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    corner: DVec3,
+    axis: usize,
+) -> Option<f64> {
+    let mut dir = DVec3::ZERO;
+    dir[axis] = 1.0;
+    let q = |s: f64| F::value(cell, corner + dir * s) - iso;
+    let (q0, q1) = (q(0.0), q(1.0));
+    if !(q0.is_finite() && q1.is_finite()) || (q0 > 0.0 && q1 > 0.0) || (q0 < 0.0 && q1 < 0.0) {
+        return None;
+    }
+    Some(solve(&q, 0.0, q0, 1.0, q1))
+}
+
 /// Root of `q` in `[a, b]` with `q(a)`, `q(b)` of opposite signs (or zero):
 /// Illinois iteration, falling back to bisection when it stalls.
-fn solve(q: &impl Fn(f64) -> f64, mut a: f64, mut qa: f64, mut b: f64, mut qb: f64) -> f64 {
+pub(crate) fn solve(
+    q: &impl Fn(f64) -> f64,
+    mut a: f64,
+    mut qa: f64,
+    mut b: f64,
+    mut qb: f64,
+) -> f64 {
     if qa == 0.0 {
         return a;
     }

@@ -167,20 +167,34 @@ fn refined_surfaces_are_closed_and_on_the_filter_isosurface() {
             );
             // Points off the grid lines are split points: on the filter's
             // isosurface (to rounding of the value range).
+            // Marching Cubes' edge points are moved along their grid edge
+            // onto the filter's isosurface where the filter brackets it
+            // there: always for the interpolating filters (their values at
+            // the samples are the samples, up to the prefilter's rounding).
             let mut on = 0;
+            let (mut edge_points, mut edge_on) = (0, 0);
             let mut folded = 0;
             for p in &m.index_points {
                 let on_grid_line = p.iter().filter(|c| c.fract() == 0.0).count() >= 2;
-                if on_grid_line {
-                    continue;
-                }
                 let cell = [0, 1, 2].map(|a| (p[a].floor() as u64).min(dims[a] as u64 - 2));
                 let local = [0, 1, 2].map(|a| p[a] - cell[a] as f64);
                 let (f, _) = value(&vol, r, cell, local);
+                if on_grid_line {
+                    edge_points += 1;
+                    edge_on += (f.abs() < 1e-9) as usize;
+                    continue;
+                }
                 assert!(f.abs() < 1e-9, "{r:?}: split point {p:?} has F = {f}");
                 on += 1;
             }
             assert!(on > 1000, "{r:?}: only {on} split points");
+            println!("{r:?}: {edge_on} of {edge_points} edge points on the filter's isosurface");
+            if r != Reconstruction::BSpline {
+                assert!(
+                    edge_on * 1000 >= edge_points * 999,
+                    "{r:?}: {edge_on} of {edge_points} edge points on the isosurface"
+                );
+            }
             for t in &m.triangles {
                 let n = tri_normal(&m.index_points, *t);
                 let cen = centroid(&m.index_points, *t);
@@ -190,16 +204,17 @@ fn refined_surfaces_are_closed_and_on_the_filter_isosurface() {
                 // Outward normals point towards lower values: against g.
                 folded += (dot(n, g) > 0.0) as usize;
             }
-            // Marching Cubes' edge vertices stay at the linear crossings,
-            // off the cubic isosurface, so a few triangles next to them
-            // can face against the cubic gradient (about 1 % here).
+            // Marching Cubes' topology is the trilinear one, and a coarse
+            // patch refined onto a curved surface can still turn a few
+            // triangles against the cubic gradient (0.7-1 % here; 1.1-1.6 %
+            // while edge points stayed at the linear crossings).
             let share = folded as f64 / m.triangles.len() as f64;
             println!(
                 "{r:?} {rule:?}: {folded} of {} triangles folded",
                 m.triangles.len()
             );
             assert!(
-                share < 0.03,
+                share < 0.015,
                 "{r:?} {rule:?}: {folded} folded triangles ({share})"
             );
         }
