@@ -6,9 +6,9 @@
 //! around a cell (indices clamped at the volume's border: the border
 //! sample is repeated). The paper's refinement only needs a value and a
 //! gradient, so these filters plug into it through
-//! [`ReconstructionFilter`]; Marching Cubes still takes its topology and
-//! its edge vertices from the samples (the trilinear decision), and only
-//! split points move onto the cubic isosurface.
+//! [`ReconstructionFilter`]; Marching Cubes still takes its topology from
+//! the samples (the trilinear decision), its edge vertices move along
+//! their grid edge onto the cubic isosurface, and split points follow it.
 //!
 //! Face consistency (crack-freeness): on a face shared by two cells, the
 //! kernel weights across the face are those at `t = 1` in one cell and at

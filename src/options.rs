@@ -47,8 +47,10 @@ pub enum NormalMode {
 }
 
 /// The reconstruction filter whose isosurface refinement follows (split
-/// points are moved onto its isosurface). Marching Cubes' topology and edge
-/// vertices always come from the samples (the trilinear decision).
+/// points are moved onto its isosurface). Marching Cubes' topology always
+/// comes from the samples (the trilinear decision); when refining with a
+/// cubic filter, its edge vertices first move along their grid edge onto
+/// the filter's isosurface (where the filter brackets one there).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Reconstruction {
     /// The trilinear interpolant of each cell (the paper's filter).

@@ -319,9 +319,11 @@ public:
    * - RECONSTRUCTION_BSPLINE_INTERPOLATING: tricubic B-spline through the
    *   samples (prefiltered, C2); allocates one double per sample.
    *
-   * Marching Cubes' topology and its edge vertices always come from the
-   * samples (the trilinear decision), so with a cubic filter only the
-   * split points lie on the cubic isosurface; the mesh stays welded,
+   * Marching Cubes' topology always comes from the samples (the trilinear
+   * decision); with a cubic filter and refinement on, its edge vertices
+   * first move along their grid edge onto the cubic isosurface (where the
+   * filter brackets one there), then the split points follow it; the
+   * mesh stays welded,
    * watertight and independent of the number of threads. Nothing is
    * guaranteed about the topology of the cubic isosurface. The cubic
    * filters read the 4x4x4 samples around a cell (the border sample
