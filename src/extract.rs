@@ -430,20 +430,17 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     // enters the map once, so welding is unchanged. This scratch grows with
     // the layer's area (about 42 bytes per sample), so it is allocated
     // fallibly.
+    let (x_edges, y_edges, z_edges) = (nx * (ny + 1), nxs * ny, nxs * (ny + 1));
     let scratch = (|| {
         Some((
             [filled(layer_len, 0u8)?, filled(layer_len, 0u8)?],
-            [
-                filled(nx * (ny + 1), u64::MAX)?,
-                filled(nx * (ny + 1), u64::MAX)?,
-            ],
-            [filled(nxs * ny, u64::MAX)?, filled(nxs * ny, u64::MAX)?],
-            filled(nxs * (ny + 1), u64::MAX)?,
+            [filled(x_edges, u64::MAX)?, filled(x_edges, u64::MAX)?],
+            [filled(y_edges, u64::MAX)?, filled(y_edges, u64::MAX)?],
+            filled(z_edges, u64::MAX)?,
         ))
     })();
     let Some((mut insides, mut edge_x, mut edge_y, mut edge_z)) = scratch else {
-        out.scratch_failed =
-            layer_len * 2 + (nx * (ny + 1) * 2 + nxs * ny * 2 + nxs * (ny + 1)) * 8;
+        out.scratch_failed = 2 * layer_len + 8 * (2 * x_edges + 2 * y_edges + z_edges);
         return out;
     };
     let mut finite = [vec![true; ny + 1], vec![true; ny + 1]];
@@ -560,6 +557,28 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             }
                         } else if ids[e] == u32::MAX {
                             let [a, b] = EDGES[e];
+                            let ca = CORNERS[a as usize];
+                            let ax = EDGE_AXIS[e] as usize;
+                            // The grid edge's slot in the per-layer id cache
+                            // (not used when only counting).
+                            let (ci, cj, ck) =
+                                (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
+                            let (slots, at) = match ax {
+                                0 => (&mut edge_x[ck & 1], cj * nx + ci),
+                                1 => (&mut edge_y[ck & 1], cj * nxs + ci),
+                                _ => (&mut edge_z, cj * nxs + ci),
+                            };
+                            let entry = slots[at];
+                            if !count_only && entry >> 32 == ck as u64 {
+                                // A cell before this one placed the point: the
+                                // map would give the same id, and the point's
+                                // coordinates are the ones computed below.
+                                let id = entry as u32;
+                                ids[e] = id;
+                                loc[e] = out.verts[id as usize] - cell_f;
+                                tid[slot] = id;
+                                continue;
+                            }
                             let (sa, sb) = (c[a as usize], c[b as usize]);
                             // vtkMarchingCubes: t from the lower corner.
                             let mut t = (sh.iso - sa) / (sb - sa);
@@ -569,8 +588,6 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                 t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa))
                                     .clamp(0.0, 1.0);
                             }
-                            let ca = CORNERS[a as usize];
-                            let ax = EDGE_AXIS[e] as usize;
                             if let Some(fc) = &edge_filter {
                                 let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
                                 if let Some(s) = edge_crossing::<F>(fc, sh.iso, corner, ax) {
@@ -588,28 +605,13 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             if count_only {
                                 ids[e] = e as u32;
                             } else {
-                                // The grid edge's id, if a cell before this
-                                // one has looked it up: the same key, so the
-                                // map would answer the same.
-                                let (ci, cj, ck) =
-                                    (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
-                                let (slots, at) = match ax {
-                                    0 => (&mut edge_x[ck & 1], cj * nx + ci),
-                                    1 => (&mut edge_y[ck & 1], cj * nxs + ci),
-                                    _ => (&mut edge_z, cj * nxs + ci),
-                                };
-                                let entry = slots[at];
-                                ids[e] = if entry >> 32 == ck as u64 {
-                                    entry as u32
-                                } else {
-                                    let next = out.verts.len() as u32;
-                                    let id = *map.entry(key(gp)).or_insert_with(|| {
-                                        out.verts.push(gp);
-                                        next
-                                    });
-                                    slots[at] = (ck as u64) << 32 | id as u64;
-                                    id
-                                };
+                                let next = out.verts.len() as u32;
+                                let id = *map.entry(key(gp)).or_insert_with(|| {
+                                    out.verts.push(gp);
+                                    next
+                                });
+                                slots[at] = (ck as u64) << 32 | id as u64;
+                                ids[e] = id;
                             }
                         }
                         tid[slot] = ids[e];
