@@ -22,6 +22,7 @@ use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
+use crate::flat_map::FlatMap;
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
 use crate::project::edge_crossing;
@@ -408,8 +409,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
-    let mut edges: Vec<u64> = Vec::with_capacity(256);
-    let mut corners: Vec<u128> = Vec::with_capacity(96);
+    let mut edges = FlatMap::<u32>::default();
     let [nx, ny, _] = sh.cell_dims;
     let count_only = mode == Mode::Count;
     let cap = match mode {
@@ -753,7 +753,6 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             &out.verts,
                             &pos_of,
                             &mut edges,
-                            &mut corners,
                         )
                     {
                         break;

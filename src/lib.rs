@@ -52,6 +52,7 @@ pub mod samples;
 pub mod tables;
 
 mod extract;
+mod flat_map;
 mod normals;
 mod refine;
 

@@ -219,6 +219,17 @@ pub fn test<F: ReconstructionFilter>(
         }
         let d = g / len;
         if let Some((lo, hi)) = clip_to_cell(p, d) {
+            // Most samples are near: when the first Newton step stays
+            // within epsilon, one value at epsilon in its direction (inside
+            // the cell) settles it if the sign changes there.
+            let t1 = -q0 / len;
+            if t1.abs() <= epsilon {
+                let te = if t1 < 0.0 { (-epsilon).max(lo) } else { epsilon.min(hi) };
+                let qe = F::value(cell, p + d * te) - iso;
+                if qe == 0.0 || (qe < 0.0) != (q0 < 0.0) {
+                    return Test::Near;
+                }
+            }
             let tol = 1e-13 * q0.abs();
             // Newton walk along the line until it brackets a root.
             let (mut t, mut qt, mut slope) = (0.0, q0, len);

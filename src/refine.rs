@@ -14,6 +14,7 @@
 use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
+use crate::flat_map::FlatMap;
 use crate::options::Rule;
 use crate::project::{seems_far, test, Test};
 
@@ -94,12 +95,9 @@ impl Refinable {
     }
 }
 
-/// Split decisions per edge of one cell.
-pub(crate) type EdgeCache = std::collections::HashMap<
-    u64,
-    Option<DVec3>,
-    std::hash::BuildHasherDefault<crate::extract::KeyHasher>,
->;
+/// Split decisions per edge of one cell, keyed by the edge's vertex ids
+/// (smaller id in the high half).
+pub(crate) type EdgeCache = FlatMap<Option<DVec3>>;
 
 /// Refinement statistics, summed over cells.
 #[derive(Debug, Clone, Default)]
@@ -148,50 +146,38 @@ pub(crate) fn shared_fixed_axes(a: DVec3, b: DVec3) -> u8 {
 /// direction, and, unless the Marching Cubes patch (local positions
 /// `mc_pos`, three per triangle) is nearly closed, a vector area pointing
 /// the same way as the Marching Cubes patch's. `origin` is the cell's
-/// lowest corner in index coordinates. (Counting triangles that face up
-/// the filter's gradient as unsound too was tried: it removes the far
-/// folds of thin tubes but, refining those cells on their faces only,
-/// makes the atoms sample three times less accurate.) Refinement can
-/// break these where straight gradient lines from different sample points
-/// meet on `S_K`, or where it turns a tiny patch inside out; the caller
-/// then refines the cell again without interior splits.
+/// lowest corner in index coordinates; `edges` is scratch. (Counting
+/// triangles that face up the filter's gradient as unsound too was tried:
+/// it removes the far folds of thin tubes but, refining those cells on
+/// their faces only, makes the atoms sample three times less accurate.)
+/// Refinement can break these where straight gradient lines from different
+/// sample points meet on `S_K`, or where it turns a tiny patch inside out;
+/// the caller then refines the cell again without interior splits.
 pub(crate) fn sound_patch(
     origin: DVec3,
     tris: &[[u32; 3]],
     verts: &[DVec3],
     mc_pos: &[DVec3],
-    edges: &mut Vec<u64>,
-    corners: &mut Vec<u128>,
+    edges: &mut FlatMap<u32>,
 ) -> bool {
+    // Each directed edge, packed into a word, maps to the third corner of
+    // its triangle: a second triangle on the same corners either repeats a
+    // directed edge (same winding) or holds the reverse of one with the
+    // same third corner (opposite winding).
     edges.clear();
     let mut area = DVec3::ZERO;
     for t in tris {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             return false;
         }
-        // Directed edges packed into one word each: sorting words is
-        // cheaper than sorting pairs.
         for e in 0..3 {
-            edges.push((t[e] as u64) << 32 | t[(e + 1) % 3] as u64);
+            let (a, b, c) = (t[e] as u64, t[(e + 1) % 3] as u64, t[(e + 2) % 3]);
+            if edges.insert_new(a << 32 | b, c).is_some() || edges.get(b << 32 | a) == Some(c) {
+                return false;
+            }
         }
         let p = t.map(|v| verts[v as usize] - origin);
         area += (p[1] - p[0]).cross(p[2] - p[0]);
-    }
-    edges.sort_unstable();
-    if edges.windows(2).any(|w| w[0] == w[1]) {
-        return false;
-    }
-    // Two triangles on the same corners with opposite windings share no
-    // directed edge: compare sorted corner triples.
-    corners.clear();
-    corners.extend(tris.iter().map(|t| {
-        let mut c = *t;
-        c.sort_unstable();
-        (c[0] as u128) << 64 | (c[1] as u128) << 32 | c[2] as u128
-    }));
-    corners.sort_unstable();
-    if corners.windows(2).any(|w| w[0] == w[1]) {
-        return false;
     }
     let (mut mc_area, mut mc_abs) = (DVec3::ZERO, 0.0);
     for p in mc_pos.chunks_exact(3) {
@@ -271,11 +257,11 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
                     let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
                     let k = (a.min(b) as u64) << 32 | a.max(b) as u64;
-                    mids[e] = match self.cache.get(&k) {
-                        Some(r) => *r,
+                    mids[e] = match self.cache.get(k) {
+                        Some(r) => r,
                         None => {
                             let r = self.test(midpoint[e], t.fixed[e]);
-                            self.cache.insert(k, r);
+                            self.cache.insert_new(k, r);
                             r
                         }
                     };

@@ -1,0 +1,134 @@
+//! A small open-addressing hash map from `u64` keys to `Copy` values, for
+//! the per-cell bookkeeping of refinement (edge decisions, the soundness
+//! check of a refined patch).
+//!
+//! These maps are filled and emptied once per cell, millions of times per
+//! extraction, so clearing must not cost the table's size: every slot
+//! carries the generation it was written in, and [`FlatMap::clear`] only
+//! starts a new generation. Keys are vertex-id pairs packed into a word,
+//! hashed by one multiplication (Fibonacci hashing).
+
+/// Map from `u64` keys to `V`, cleared in O(1).
+#[derive(Debug, Clone)]
+pub(crate) struct FlatMap<V: Copy> {
+    /// `(generation, key, value)` per slot; a slot is empty unless its
+    /// generation is the current one.
+    slots: Vec<(u32, u64, V)>,
+    generation: u32,
+    len: usize,
+    /// `64 - log2(slots.len())`: the hash's top bits index the table.
+    shift: u32,
+}
+
+impl<V: Copy + Default> Default for FlatMap<V> {
+    fn default() -> Self {
+        Self::with_log2_capacity(6)
+    }
+}
+
+impl<V: Copy + Default> FlatMap<V> {
+    fn with_log2_capacity(bits: u32) -> Self {
+        FlatMap {
+            slots: vec![(0, 0, V::default()); 1 << bits],
+            generation: 1,
+            len: 0,
+            shift: 64 - bits,
+        }
+    }
+
+    /// Empties the map (O(1) but once every 2^32 calls).
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.slots.fill((0, 0, V::default()));
+            self.generation = 1;
+        }
+    }
+
+    #[inline(always)]
+    fn home(&self, key: u64) -> usize {
+        (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
+    }
+
+    /// The value stored under `key`.
+    #[inline]
+    pub fn get(&self, key: u64) -> Option<V> {
+        let mask = self.slots.len() - 1;
+        let mut i = self.home(key);
+        loop {
+            let (g, k, v) = self.slots[i];
+            if g != self.generation {
+                return None;
+            }
+            if k == key {
+                return Some(v);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+
+    /// Stores `value` under `key` unless the key is present; returns the
+    /// value already stored, if any (which is then kept).
+    #[inline]
+    pub fn insert_new(&mut self, key: u64, value: V) -> Option<V> {
+        if 2 * (self.len + 1) > self.slots.len() {
+            self.grow();
+        }
+        let mask = self.slots.len() - 1;
+        let mut i = self.home(key);
+        loop {
+            let (g, k, v) = self.slots[i];
+            if g != self.generation {
+                self.slots[i] = (self.generation, key, value);
+                self.len += 1;
+                return None;
+            }
+            if k == key {
+                return Some(v);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+
+    /// Doubles the table, keeping the entries.
+    #[cold]
+    fn grow(&mut self) {
+        let bits = 64 - self.shift + 1;
+        let old = std::mem::replace(self, Self::with_log2_capacity(bits));
+        for (g, k, v) in old.slots {
+            if g == old.generation {
+                self.insert_new(k, v);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn behaves_like_a_hash_map_across_clears_and_growth() {
+        let mut ours = FlatMap::<u32>::default();
+        let mut reference = std::collections::HashMap::new();
+        let mut x = 12345u64;
+        for round in 0..50 {
+            ours.clear();
+            reference.clear();
+            // Rounds of very different sizes exercise growth and reuse.
+            let n = (round * 37) % 300;
+            for _ in 0..n {
+                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let key = (x >> 40) % 512;
+                let value = (x >> 20) as u32;
+                let expected = reference.get(&key).copied();
+                assert_eq!(ours.insert_new(key, value), expected);
+                reference.entry(key).or_insert(value);
+            }
+            for key in 0..512u64 {
+                assert_eq!(ours.get(key), reference.get(&key).copied());
+            }
+        }
+    }
+}
