@@ -20,9 +20,9 @@ use rayon::prelude::*;
 
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
+use crate::flat_map::FlatMap;
 use crate::mc::{case_index, cell_triangles, Patch};
 use crate::mesh::{Mesh, Stats};
-use crate::flat_map::FlatMap;
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
 use crate::project::edge_crossing;

@@ -39,6 +39,18 @@ pub trait ReconstructionFilter: Sync {
     fn value_gradient(cell: &Self::Cell, p: DVec3) -> (f64, DVec3) {
         (Self::value(cell, p), Self::gradient(cell, p))
     }
+
+    /// The filter along the line `p + t d` inside one cell, when it is a
+    /// cubic polynomial in `t` there: the coefficients `(a2, a3)` such
+    /// that `F(p + t d) = F(p) + t ∇F(p)·d + a2 t² + a3 t³` exactly. Lets
+    /// refinement search a line for `S_K` without evaluating the filter
+    /// again. Used only for points inside a cell (on a shared face both
+    /// cells must compute the same bits, which only the filter's own
+    /// evaluations promise). Default: `None` (not a cubic along lines).
+    #[inline]
+    fn line_cubic(_cell: &Self::Cell, _p: DVec3, _d: DVec3) -> Option<(f64, f64)> {
+        None
+    }
 }
 
 #[inline(always)]
@@ -149,6 +161,40 @@ impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
     fn value_gradient(cell: &[f64; 8], p: DVec3) -> (f64, DVec3) {
         trilinear_value_gradient(cell, p)
     }
+
+    #[inline]
+    fn line_cubic(c: &[f64; 8], p: DVec3, d: DVec3) -> Option<(f64, f64)> {
+        Some(trilinear_line_cubic(c, p, d))
+    }
+}
+
+/// Coefficients `(a2, a3)` of `t²` and `t³` of the trilinear interpolant
+/// along the line `p + t d`. The interpolant has degree one in each
+/// coordinate, so its Hessian has a zero diagonal and its Taylor series
+/// ends with the mixed third derivative: `a2 = Σ_{i<j} d_i d_j H_ij(p)`,
+/// `a3 = d_x d_y d_z ∂³F/∂x∂y∂z`.
+///
+/// ```
+/// use glam::DVec3;
+/// use precisemc::filter::{trilinear_gradient, trilinear_line_cubic, trilinear_value};
+/// let c = [0.3, -1.0, 2.0, 0.5, 1.5, -0.2, 0.7, 1.1];
+/// let (p, d) = (DVec3::new(0.2, 0.6, 0.3), DVec3::new(0.48, -0.6, 0.64));
+/// let (a2, a3) = trilinear_line_cubic(&c, p, d);
+/// let t = 0.4;
+/// let poly = trilinear_value(&c, p) + t * trilinear_gradient(&c, p).dot(d) + a2 * t * t + a3 * t * t * t;
+/// assert!((poly - trilinear_value(&c, p + d * t)).abs() < 1e-14);
+/// ```
+#[inline]
+pub fn trilinear_line_cubic(c: &[f64; 8], p: DVec3, d: DVec3) -> (f64, f64) {
+    // Twists of the opposite faces, interpolated across the cell.
+    let hxy = lerp(c[0] - c[1] + c[2] - c[3], c[4] - c[5] + c[6] - c[7], p.z);
+    let hxz = lerp(c[0] - c[1] - c[4] + c[5], c[3] - c[2] - c[7] + c[6], p.y);
+    let hyz = lerp(c[0] - c[3] - c[4] + c[7], c[1] - c[2] - c[5] + c[6], p.x);
+    let hxyz = (c[1] - c[0]) + (c[3] - c[2]) + (c[4] - c[5]) + (c[6] - c[7]);
+    (
+        d.x * d.y * hxy + d.x * d.z * hxz + d.y * d.z * hyz,
+        d.x * d.y * d.z * hxyz,
+    )
 }
 
 /// Value and gradient (index space) of the reconstruction `filter` of

@@ -119,7 +119,9 @@ mod tests {
             // Rounds of very different sizes exercise growth and reuse.
             let n = (round * 37) % 300;
             for _ in 0..n {
-                x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                x = x
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 let key = (x >> 40) % 512;
                 let value = (x >> 20) as u32;
                 let expected = reference.get(&key).copied();

@@ -190,10 +190,13 @@ pub enum Test {
 }
 
 /// Decides whether `p` is within `epsilon` of `S_K` along the gradient line
-/// (with the same fixed axes as [`project`]). One Newton step usually
-/// settles it: if the step stays within epsilon and brackets a root, the
-/// nearest root is nearer still. Otherwise the exact [`project`] decides.
-/// A pure function of its arguments, like [`project`].
+/// (with the same fixed axes as [`project`]). Usually settled without
+/// [`project`]: a near sample by one value at `epsilon` in the Newton
+/// direction, a far one by a Newton walk that brackets the root. Inside a
+/// cell, where a filter that is a cubic along lines gives its polynomial
+/// ([`ReconstructionFilter::line_cubic`]), the walk runs on the polynomial
+/// instead of the filter. A pure function of its arguments, like
+/// [`project`].
 pub fn test<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
@@ -218,52 +221,49 @@ pub fn test<F: ReconstructionFilter>(
             return Test::Near;
         }
         let d = g / len;
-        if let Some((lo, hi)) = clip_to_cell(p, d) {
-            // Most samples are near: when the first Newton step stays
-            // within epsilon, one value at epsilon in its direction (inside
-            // the cell) settles it if the sign changes there.
-            let t1 = -q0 / len;
-            if t1.abs() <= epsilon {
-                let te = if t1 < 0.0 { (-epsilon).max(lo) } else { epsilon.min(hi) };
-                let qe = F::value(cell, p + d * te) - iso;
-                if qe == 0.0 || (qe < 0.0) != (q0 < 0.0) {
-                    return Test::Near;
+        {
+            let cubic = if fixed == 0 {
+                F::line_cubic(cell, p, d)
+            } else {
+                None
+            };
+            let line = Line {
+                p,
+                d,
+                q0,
+                slope0: len,
+                epsilon,
+            };
+            let found = match cubic {
+                // Halley's steps on the polynomial: cubic convergence, so
+                // a far root usually takes two steps instead of four.
+                Some((a2, a3)) => {
+                    let halley = |t: f64| {
+                        let q = q0 + t * (len + t * (a2 + t * a3));
+                        let s1 = len + t * (2.0 * a2 + 3.0 * a3 * t);
+                        let s2 = 2.0 * a2 + 6.0 * a3 * t;
+                        (q, -2.0 * q * s1 / (2.0 * s1 * s1 - q * s2))
+                    };
+                    line.walk(
+                        |t| q0 + t * (len + t * (a2 + t * a3)),
+                        halley(0.0).1,
+                        halley,
+                    )
                 }
-            }
-            let tol = 1e-13 * q0.abs();
-            // Newton walk along the line until it brackets a root.
-            let (mut t, mut qt, mut slope) = (0.0, q0, len);
-            for _ in 0..6 {
-                if !(slope != 0.0 && slope.is_finite()) {
-                    break;
-                }
-                let tn = t - qt / slope;
-                if !(tn >= lo && tn <= hi) {
-                    break;
-                }
-                let (vn, gn) = F::value_gradient(cell, p + d * tn);
-                let qn = vn - iso;
-                if qn.abs() > tol && (qn < 0.0) == (q0 < 0.0) {
-                    t = tn;
-                    qt = qn;
-                    slope = mask(gn).dot(d);
-                    continue;
-                }
-                // A root lies between t and tn (both on one side of 0).
-                if t.abs().max(tn.abs()) <= epsilon {
-                    return Test::Near;
-                }
-                let r = if qn.abs() <= tol {
-                    tn
-                } else {
-                    let q = |s: f64| F::value(cell, p + d * s) - iso;
-                    solve(&q, t, qt, tn, qn)
-                };
-                return if r.abs() > epsilon {
-                    Test::Far(p + d * r)
-                } else {
-                    Test::Near
-                };
+                None => line.walk(
+                    |t| F::value(cell, p + d * t) - iso,
+                    -q0 / len,
+                    |t| {
+                        let (v, g) = F::value_gradient(cell, p + d * t);
+                        let q = v - iso;
+                        (q, -q / mask(g).dot(d))
+                    },
+                ),
+            };
+            match found {
+                Some(None) => return Test::Near,
+                Some(Some(t)) => return Test::Far(p + d * t),
+                None => {}
             }
         }
     }
@@ -274,9 +274,94 @@ pub fn test<F: ReconstructionFilter>(
     }
 }
 
+/// A gradient line through a sample point, for [`test`]: `q(t) = F - iso`
+/// at distance `t` along the unit direction, inside `[lo, hi]`.
+struct Line {
+    p: DVec3,
+    d: DVec3,
+    q0: f64,
+    slope0: f64,
+    epsilon: f64,
+}
+
+impl Line {
+    /// `Some(None)`: a root within epsilon; `Some(Some(t))`: the root the
+    /// walk brackets, farther than epsilon; `None`: undecided. `q(t)` gives
+    /// the value, `q_step(t)` the value and the step to take from `t` (a
+    /// Newton or Halley step), `step0` the step from 0.
+    #[inline(always)]
+    fn walk(
+        &self,
+        q: impl Fn(f64) -> f64,
+        step0: f64,
+        q_step: impl Fn(f64) -> (f64, f64),
+    ) -> Option<Option<f64>> {
+        let &Line {
+            p,
+            d,
+            q0,
+            slope0,
+            epsilon,
+        } = self;
+        // Most samples are near: when the first Newton step stays within
+        // epsilon, one value at epsilon in its direction (inside the cell)
+        // settles it if the sign changes there. The cell's bounds on the
+        // line cost six divisions, so they wait until the point at epsilon
+        // turns out to lie outside.
+        let t1 = -q0 / slope0;
+        let mut bounds = None;
+        if t1.abs() <= epsilon {
+            let mut te = if t1 < 0.0 { -epsilon } else { epsilon };
+            let pe = p + d * te;
+            if !(pe.cmpge(DVec3::ZERO).all() && pe.cmple(DVec3::ONE).all()) {
+                let (lo, hi) = clip_to_cell(p, d)?;
+                bounds = Some((lo, hi));
+                te = te.clamp(lo, hi);
+            }
+            let qe = q(te);
+            if qe == 0.0 || (qe < 0.0) != (q0 < 0.0) {
+                return Some(None);
+            }
+        }
+        let (lo, hi) = match bounds {
+            Some(b) => b,
+            None => clip_to_cell(p, d)?,
+        };
+        let tol = 1e-13 * q0.abs();
+        // Walk along the line until it brackets a root.
+        let (mut t, mut qt, mut step) = (0.0, q0, step0);
+        for _ in 0..6 {
+            let tn = t + step;
+            if !(tn >= lo && tn <= hi) {
+                return None;
+            }
+            let (qn, sn) = q_step(tn);
+            if qn.abs() > tol && (qn < 0.0) == (q0 < 0.0) {
+                t = tn;
+                qt = qn;
+                step = sn;
+                continue;
+            }
+            // A root lies between t and tn (both on one side of 0).
+            if t.abs().max(tn.abs()) <= epsilon {
+                return Some(None);
+            }
+            let r = if qn.abs() <= tol {
+                tn
+            } else {
+                solve(&q, t, qt, tn, qn)
+            };
+            return Some((r.abs() > epsilon).then_some(r));
+        }
+        None
+    }
+}
+
 /// Quick estimate of whether `p` is farther than `epsilon` from `S_K`: no
 /// sign change of `F - iso` between `p` and the two points `epsilon` away
-/// along the gradient line. Used only for statistics.
+/// along the gradient line (clamped to the cell). Used only for
+/// statistics. The Newton direction is tried first: for a near sample
+/// that usually settles it with one more value.
 pub fn seems_far<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
@@ -284,21 +369,23 @@ pub fn seems_far<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
 ) -> bool {
-    let mut g = F::gradient(cell, p);
+    let (v0, mut g) = F::value_gradient(cell, p);
     for a in 0..3 {
         if fixed & (1 << a) != 0 {
             g[a] = 0.0;
         }
     }
     let len = g.length();
-    if !(len > 0.0 && len.is_finite()) {
+    let q0 = v0 - iso;
+    if !(len > 0.0 && len.is_finite()) || q0 == 0.0 {
         return false;
     }
     let d = g / len * epsilon;
-    let q0 = F::value(cell, p) - iso;
-    let qa = F::value(cell, (p + d).clamp(DVec3::ZERO, DVec3::ONE)) - iso;
-    let qb = F::value(cell, (p - d).clamp(DVec3::ZERO, DVec3::ONE)) - iso;
-    q0 != 0.0 && (qa < 0.0) == (q0 < 0.0) && (qb < 0.0) == (q0 < 0.0) && qa != 0.0 && qb != 0.0
+    let toward = if q0 > 0.0 { -d } else { d };
+    [toward, -toward].into_iter().all(|s| {
+        let q = F::value(cell, (p + s).clamp(DVec3::ZERO, DVec3::ONE)) - iso;
+        q != 0.0 && (q < 0.0) == (q0 < 0.0)
+    })
 }
 
 /// Where the filter crosses `iso` on the grid edge of `cell` from the
@@ -397,6 +484,59 @@ mod tests {
             }
         }
         let _ = Grid::<f64>::new; // keep the type in scope for the alias
+    }
+
+    /// The trilinear filter without its line polynomial: `test` then
+    /// evaluates the filter along the line.
+    struct Evaluated;
+    impl ReconstructionFilter for Evaluated {
+        type Cell = [f64; 8];
+        fn load(&self, _: [usize; 3]) -> Option<[f64; 8]> {
+            None
+        }
+        fn value(c: &[f64; 8], p: DVec3) -> f64 {
+            trilinear_value(c, p)
+        }
+        fn gradient(c: &[f64; 8], p: DVec3) -> DVec3 {
+            crate::filter::trilinear_gradient(c, p)
+        }
+    }
+
+    #[test]
+    fn the_line_polynomial_decides_like_the_filter() {
+        // Random cells, sample points at distances around epsilon from
+        // S_K: the walk on the polynomial must reach the same decisions
+        // and the same split points as the walk on filter values.
+        let mut x = 7u64;
+        let mut rnd = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut near, mut far) = (0, 0);
+        for n in 0..20000 {
+            let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
+            let p = DVec3::new(rnd(), rnd(), rnd());
+            let g = crate::filter::trilinear_gradient(&c, p);
+            let dist = [0.0003, 0.0009, 0.0011, 0.004, 0.03, 0.2][n % 6];
+            let iso =
+                trilinear_value(&c, p) + g.length() * dist * if n % 2 == 0 { 1.0 } else { -1.0 };
+            let eps = 0.001;
+            let a = test::<Tri>(&c, iso, p, 0, eps);
+            let b = test::<Evaluated>(&c, iso, p, 0, eps);
+            match (a, b) {
+                (Test::Near, Test::Near) => near += 1,
+                (Test::Failed, Test::Failed) => {}
+                (Test::Far(qa), Test::Far(qb)) => {
+                    far += 1;
+                    assert!((qa - qb).length() < 1e-12, "{qa} vs {qb}");
+                    assert!((trilinear_value(&c, qa) - iso).abs() < 1e-13);
+                }
+                _ => panic!("cell {c:?}, p {p}, iso {iso}: {a:?} vs {b:?}"),
+            }
+        }
+        assert!(near > 5000 && far > 5000, "{near} near, {far} far");
     }
 
     #[test]
