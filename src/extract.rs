@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::assemble::assemble;
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
@@ -130,20 +131,22 @@ struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     layers_done: &'a AtomicU64,
 }
 
+/// What one slab of cell layers produced: points (index coordinates,
+/// welded within the slab), triangles on them, their levels, counters.
 #[derive(Default)]
-struct SlabOut {
-    verts: Vec<DVec3>,
-    tris: Vec<[u32; 3]>,
-    levels: Vec<u8>,
-    mc_tris: u64,
-    ambiguous: u64,
-    nonfinite: u64,
+pub(crate) struct SlabOut {
+    pub verts: Vec<DVec3>,
+    pub tris: Vec<[u32; 3]>,
+    pub levels: Vec<u8>,
+    pub mc_tris: u64,
+    pub ambiguous: u64,
+    pub nonfinite: u64,
     /// Bytes of scratch buffers that could not be allocated (the slab
     /// stopped before its first cell; the extraction fails).
-    scratch_failed: usize,
-    counters: Counters,
-    refine_time: Duration,
-    total_time: Duration,
+    pub scratch_failed: usize,
+    pub counters: Counters,
+    pub refine_time: Duration,
+    pub total_time: Duration,
 }
 
 /// Forwards progress to the caller's callback: never decreasing, and never
@@ -367,7 +370,7 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
 
     let t_asm = Instant::now();
     let passes_wall = (t_asm - start).as_secs_f64();
-    let mut mesh = assemble(outs, volume, passes_wall, &mut stats)?;
+    let mut mesh = pool.install(|| assemble(outs, volume, passes_wall, &mut stats))?;
     stats.time_assemble = t_asm.elapsed().as_secs_f64();
     if !reporter.report(0.97) {
         return Err(Error::Aborted);
@@ -831,193 +834,10 @@ fn report_emitted<T: Scalar, F: ReconstructionFilter>(
     false
 }
 
-/// Welds the slabs' vertices (only points on a slab's bottom plane can
-/// already exist in the slab before it), numbers them in order of first
-/// use, and builds the output arrays; splits `passes_wall` (seconds) into
-/// the Marching Cubes and refinement times.
-fn assemble(
-    outs: Vec<SlabOut>,
-    volume: &Volume<'_>,
-    passes_wall: f64,
-    stats: &mut Stats,
-) -> Result<Mesh, Error> {
-    let nv: usize = outs.iter().map(|o| o.verts.len()).sum();
-    let nt: usize = outs.iter().map(|o| o.tris.len()).sum();
-    let mut mesh = Mesh::default();
-    reserve(&mut mesh.index_points, nv)?;
-    reserve(&mut mesh.triangles, nt)?;
-    reserve(&mut mesh.levels, nt)?;
-    let mut counters = Counters::default();
-    let (mut refine_t, mut total_t) = (Duration::ZERO, Duration::ZERO);
-    let mut prev_plane: KeyMap<u64> = KeyMap::default();
-    let mut remap: Vec<u64> = Vec::new();
-    for o in &outs {
-        stats.mc_triangles += o.mc_tris;
-        stats.ambiguous_cells += o.ambiguous;
-        stats.skipped_nonfinite_cells += o.nonfinite;
-        counters.samples += o.counters.samples;
-        counters.splits += o.counters.splits;
-        counters.failures += o.counters.failures;
-        counters.above_eps += o.counters.above_eps;
-        counters.unsound_cells += o.counters.unsound_cells;
-        refine_t += o.refine_time;
-        total_t += o.total_time;
-        // The lowest z of this slab's vertices is its bottom plane.
-        let bottom = o.verts.iter().map(|v| v.z).fold(f64::INFINITY, f64::min);
-        let top = o
-            .verts
-            .iter()
-            .map(|v| v.z)
-            .fold(f64::NEG_INFINITY, f64::max);
-        remap.clear();
-        let mut next_plane: KeyMap<u64> = KeyMap::default();
-        for v in &o.verts {
-            let id = if v.z == bottom {
-                if let Some(&g) = prev_plane.get(&key(*v)) {
-                    g
-                } else {
-                    mesh.index_points.push(v.to_array());
-                    (mesh.index_points.len() - 1) as u64
-                }
-            } else {
-                mesh.index_points.push(v.to_array());
-                (mesh.index_points.len() - 1) as u64
-            };
-            if v.z == top {
-                next_plane.insert(key(*v), id);
-            }
-            remap.push(id);
-        }
-        for (t, l) in o.tris.iter().zip(&o.levels) {
-            let t = t.map(|v| remap[v as usize]);
-            // Extreme sample values can round an edge point onto a grid
-            // point that another point of the triangle already is (e.g. an
-            // edge from -8 to 1e308 crossed at 1): such a triangle has a
-            // repeated point, no area, and its edges cancel in pairs, so it
-            // is dropped without opening the surface.
-            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                continue;
-            }
-            mesh.triangles.push(t);
-            mesh.levels.push(*l);
-        }
-        prev_plane = next_plane;
-    }
-    remove_duplicate_triangles(&mut mesh);
-    // World coordinates.
-    reserve(&mut mesh.points, mesh.index_points.len())?;
-    for p in &mesh.index_points {
-        mesh.points.push([
-            volume.origin[0] + volume.spacing[0] * p[0],
-            volume.origin[1] + volume.spacing[1] * p[1],
-            volume.origin[2] + volume.spacing[2] * p[2],
-        ]);
-    }
-    let n = mesh.levels.len() as f64;
-    stats.max_level = mesh.levels.iter().copied().max().unwrap_or(0) as u32;
-    stats.mean_level = if n > 0.0 {
-        mesh.levels.iter().map(|&l| l as f64).sum::<f64>() / n
-    } else {
-        0.0
-    };
-    stats.samples_evaluated = counters.samples;
-    stats.split_points = counters.splits;
-    stats.projection_failures = counters.failures;
-    stats.faces_above_epsilon = counters.above_eps;
-    stats.cells_refined_on_faces_only = counters.unsound_cells;
-    // The slabs' times are per thread and add up over threads: split the
-    // passes' wall time in their proportion.
-    let total = total_t.as_secs_f64();
-    let share = if total > 0.0 {
-        (refine_t.as_secs_f64() / total).min(1.0)
-    } else {
-        0.0
-    };
-    stats.time_refine = passes_wall * share;
-    stats.time_mc = passes_wall - stats.time_refine;
-    Ok(mesh)
-}
-
 /// A vector of `n` copies of `value`, or `None` when the allocation fails.
 fn filled<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(n).ok()?;
     v.resize(n, value);
     Some(v)
-}
-
-fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
-    v.try_reserve_exact(n)
-        .map_err(|_| Error::OutOfMemory(n.saturating_mul(std::mem::size_of::<T>())))
-}
-
-/// Samples equal to the isovalue can make two cells emit the same
-/// triangle, flat in a shared face: a pair of opposite orientation bounds
-/// nothing and is removed, a repeated one is kept once. Triangles of two
-/// cells can coincide only in the grid plane between them, so only
-/// triangles lying in a grid plane are checked.
-fn remove_duplicate_triangles(mesh: &mut Mesh) {
-    let pts = &mesh.index_points;
-    let in_grid_plane = |t: &[u64; 3]| {
-        let p = t.map(|v| pts[v as usize]);
-        (0..3).any(|a| p[0][a].fract() == 0.0 && p[1][a] == p[0][a] && p[2][a] == p[0][a])
-    };
-    let mut cand: Vec<(usize, [u64; 3], bool)> = Vec::new();
-    for (n, t) in mesh.triangles.iter().enumerate() {
-        if in_grid_plane(t) {
-            let mut s = *t;
-            // Rotate so the smallest id is first; the parity tells orientation.
-            let r = (0..3).min_by_key(|&k| s[k]).unwrap();
-            s.rotate_left(r);
-            let flipped = s[1] > s[2];
-            if flipped {
-                s.swap(1, 2);
-            }
-            cand.push((n, s, flipped));
-        }
-    }
-    if cand.is_empty() {
-        return;
-    }
-    cand.sort_by(|a, b| a.1.cmp(&b.1).then(a.0.cmp(&b.0)));
-    let mut drop = vec![false; mesh.triangles.len()];
-    let mut i = 0;
-    while i < cand.len() {
-        let mut j = i;
-        while j < cand.len() && cand[j].1 == cand[i].1 {
-            j += 1;
-        }
-        let group = &cand[i..j];
-        if group.len() > 1 {
-            let ups = group.iter().filter(|g| !g.2).count();
-            let downs = group.len() - ups;
-            // Keep the surplus orientation once, at its first occurrence.
-            let keep_dir = if ups > downs {
-                Some(false)
-            } else if downs > ups {
-                Some(true)
-            } else {
-                None
-            };
-            let mut kept = false;
-            for g in group {
-                if Some(g.2) == keep_dir && !kept {
-                    kept = true;
-                } else {
-                    drop[g.0] = true;
-                }
-            }
-        }
-        i = j;
-    }
-    let mut w = 0;
-    for r in 0..mesh.triangles.len() {
-        if !drop[r] {
-            mesh.triangles[w] = mesh.triangles[r];
-            mesh.levels[w] = mesh.levels[r];
-            w += 1;
-        }
-    }
-    mesh.triangles.truncate(w);
-    mesh.levels.truncate(w);
 }

@@ -51,6 +51,7 @@ pub mod project;
 pub mod samples;
 pub mod tables;
 
+mod assemble;
 mod extract;
 mod flat_map;
 mod normals;

@@ -1,0 +1,341 @@
+//! Assembly: the slabs' vertices and triangles welded into one mesh.
+//!
+//! Each slab numbers its own points; only points on a slab's bottom plane
+//! can already exist in the slab before it (its top plane). Every step
+//! that touches all points or triangles runs in parallel, one slab per
+//! task; what stays serial is proportional to the points on the planes
+//! between slabs and to the triangles lying in grid planes. Points are
+//! numbered slab by slab in order of first use, so the output does not
+//! depend on the number of threads.
+
+use std::time::Duration;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::extract::{key, KeyMap, SlabOut};
+use crate::mesh::{Mesh, Stats};
+use crate::refine::Counters;
+use crate::volume::Volume;
+use crate::Error;
+
+/// Welds the slabs' outputs (in slab order) into a mesh and fills the
+/// statistics they carry; splits `passes_wall` (seconds) into the Marching
+/// Cubes and refinement times. Runs on the current rayon pool.
+pub(crate) fn assemble(
+    outs: Vec<SlabOut>,
+    volume: &Volume<'_>,
+    passes_wall: f64,
+    stats: &mut Stats,
+) -> Result<Mesh, Error> {
+    sum_counters(&outs, passes_wall, stats);
+    let n = outs.len();
+
+    // Each slab's lowest and highest point plane (z in index space).
+    let planes: Vec<(f64, f64)> = outs
+        .par_iter()
+        .map(|o| {
+            o.verts
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v.z), hi.max(v.z))
+                })
+        })
+        .collect();
+    // Points of a slab's bottom plane that the slab before holds on its
+    // top plane: (id here, id there), in increasing id here.
+    let links: Vec<Vec<(u32, u32)>> = (0..n)
+        .into_par_iter()
+        .map(|s| {
+            if s == 0 || planes[s - 1].1 != planes[s].0 {
+                return Vec::new();
+            }
+            let plane = planes[s].0;
+            let mut before: KeyMap<u32> = KeyMap::default();
+            for (i, v) in outs[s - 1].verts.iter().enumerate() {
+                if v.z == plane {
+                    before.insert(key(*v), i as u32);
+                }
+            }
+            outs[s]
+                .verts
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.z == plane)
+                .filter_map(|(i, v)| before.get(&key(*v)).map(|&j| (i as u32, j)))
+                .collect()
+        })
+        .collect();
+
+    // New points: numbered slab after slab, written in parallel.
+    let fresh: Vec<usize> = (0..n)
+        .map(|s| outs[s].verts.len() - links[s].len())
+        .collect();
+    let mut index_points = zeroed::<[f64; 3]>(fresh.iter().sum())?;
+    let starts = offsets(&fresh);
+    let mut remaps: Vec<Vec<u64>> = outs
+        .par_iter()
+        .zip(&links)
+        .zip(split_mut(&mut index_points, &fresh))
+        .zip(&starts)
+        .map(|(((o, link), out), &start)| {
+            let mut remap = Vec::with_capacity(o.verts.len());
+            let (mut l, mut w) = (0, 0);
+            for (i, v) in o.verts.iter().enumerate() {
+                if l < link.len() && link[l].0 as usize == i {
+                    // Filled in below, once the slab before is numbered.
+                    remap.push(u64::MAX);
+                    l += 1;
+                } else {
+                    out[w] = v.to_array();
+                    remap.push((start + w) as u64);
+                    w += 1;
+                }
+            }
+            remap
+        })
+        .collect();
+    for s in 1..n {
+        let (done, rest) = remaps.split_at_mut(s);
+        for &(i, j) in &links[s] {
+            rest[0][i as usize] = done[s - 1][j as usize];
+        }
+    }
+
+    // Triangles: welding can give a triangle a repeated point. Extreme
+    // sample values can round an edge point onto a grid point that another
+    // point of the triangle already is (e.g. an edge from -8 to 1e308
+    // crossed at 1): such a triangle has no area and its edges cancel in
+    // pairs, so it is dropped without opening the surface.
+    let welded = |t: &[u32; 3], remap: &[u64]| {
+        let g = t.map(|v| remap[v as usize]);
+        (g[0] != g[1] && g[1] != g[2] && g[0] != g[2]).then_some(g)
+    };
+    let kept: Vec<usize> = outs
+        .par_iter()
+        .zip(&remaps)
+        .map(|(o, r)| o.tris.iter().filter(|t| welded(t, r).is_some()).count())
+        .collect();
+    let mut triangles = zeroed::<[u64; 3]>(kept.iter().sum())?;
+    let mut levels = zeroed::<u8>(triangles.len())?;
+    let starts = offsets(&kept);
+    let candidates: Vec<Vec<Candidate>> = outs
+        .par_iter()
+        .zip(&remaps)
+        .zip(split_mut(&mut triangles, &kept))
+        .zip(split_mut(&mut levels, &kept))
+        .zip(&starts)
+        .map(|((((o, r), tri_out), level_out), &start)| {
+            let mut cand = Vec::new();
+            let mut w = 0;
+            for (t, &l) in o.tris.iter().zip(&o.levels) {
+                let Some(g) = welded(t, r) else { continue };
+                if in_grid_plane(t.map(|v| o.verts[v as usize])) {
+                    cand.push(Candidate::new(start + w, g));
+                }
+                tri_out[w] = g;
+                level_out[w] = l;
+                w += 1;
+            }
+            cand
+        })
+        .collect();
+    drop(remaps);
+    drop(outs);
+    remove_duplicate_triangles(
+        candidates.into_iter().flatten().collect(),
+        &mut triangles,
+        &mut levels,
+    );
+
+    // World coordinates.
+    let mut points = Vec::new();
+    reserve(&mut points, index_points.len())?;
+    points.par_extend(index_points.par_iter().map(|p| {
+        [
+            volume.origin[0] + volume.spacing[0] * p[0],
+            volume.origin[1] + volume.spacing[1] * p[1],
+            volume.origin[2] + volume.spacing[2] * p[2],
+        ]
+    }));
+    let (max, sum) = levels
+        .par_iter()
+        .map(|&l| (l, l as u64))
+        .reduce(|| (0, 0), |a, b| (a.0.max(b.0), a.1 + b.1));
+    stats.max_level = max as u32;
+    stats.mean_level = if levels.is_empty() {
+        0.0
+    } else {
+        sum as f64 / levels.len() as f64
+    };
+    Ok(Mesh {
+        points,
+        index_points,
+        triangles,
+        levels,
+        ..Mesh::default()
+    })
+}
+
+/// Sums the slabs' statistics into `stats`.
+fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
+    let mut counters = Counters::default();
+    let (mut refine_t, mut total_t) = (Duration::ZERO, Duration::ZERO);
+    for o in outs {
+        stats.mc_triangles += o.mc_tris;
+        stats.ambiguous_cells += o.ambiguous;
+        stats.skipped_nonfinite_cells += o.nonfinite;
+        counters.samples += o.counters.samples;
+        counters.splits += o.counters.splits;
+        counters.failures += o.counters.failures;
+        counters.above_eps += o.counters.above_eps;
+        counters.unsound_cells += o.counters.unsound_cells;
+        refine_t += o.refine_time;
+        total_t += o.total_time;
+    }
+    stats.samples_evaluated = counters.samples;
+    stats.split_points = counters.splits;
+    stats.projection_failures = counters.failures;
+    stats.faces_above_epsilon = counters.above_eps;
+    stats.cells_refined_on_faces_only = counters.unsound_cells;
+    // The slabs' times are per thread and add up over threads: split the
+    // passes' wall time in their proportion.
+    let total = total_t.as_secs_f64();
+    let share = if total > 0.0 {
+        (refine_t.as_secs_f64() / total).min(1.0)
+    } else {
+        0.0
+    };
+    stats.time_refine = passes_wall * share;
+    stats.time_mc = passes_wall - stats.time_refine;
+}
+
+/// Whether a triangle (index coordinates) lies in a grid plane.
+fn in_grid_plane(p: [DVec3; 3]) -> bool {
+    // The cheap comparisons first: few triangles lie in any axis plane.
+    (0..3).any(|a| p[1][a] == p[0][a] && p[2][a] == p[0][a] && p[0][a].fract() == 0.0)
+}
+
+/// A triangle lying in a grid plane: its index in the output, its points
+/// rotated so the smallest id is first and the other two ascending, and
+/// whether that reversed its orientation.
+struct Candidate {
+    index: usize,
+    sorted: [u64; 3],
+    flipped: bool,
+}
+
+impl Candidate {
+    fn new(index: usize, t: [u64; 3]) -> Self {
+        let mut s = t;
+        let r = (0..3).min_by_key(|&k| s[k]).unwrap();
+        s.rotate_left(r);
+        let flipped = s[1] > s[2];
+        if flipped {
+            s.swap(1, 2);
+        }
+        Candidate {
+            index,
+            sorted: s,
+            flipped,
+        }
+    }
+}
+
+/// Samples equal to the isovalue can make two cells emit the same
+/// triangle, flat in a shared face: a pair of opposite orientation bounds
+/// nothing and is removed, a repeated one is kept once. Triangles of two
+/// cells can coincide only in the grid plane between them, so only the
+/// `cand`idates lying in a grid plane are compared.
+fn remove_duplicate_triangles(
+    mut cand: Vec<Candidate>,
+    triangles: &mut Vec<[u64; 3]>,
+    levels: &mut Vec<u8>,
+) {
+    cand.sort_by(|a, b| a.sorted.cmp(&b.sorted).then(a.index.cmp(&b.index)));
+    let mut drop = Vec::new();
+    let mut i = 0;
+    while i < cand.len() {
+        let mut j = i + 1;
+        while j < cand.len() && cand[j].sorted == cand[i].sorted {
+            j += 1;
+        }
+        let group = &cand[i..j];
+        i = j;
+        if group.len() < 2 {
+            continue;
+        }
+        let ups = group.iter().filter(|g| !g.flipped).count();
+        let downs = group.len() - ups;
+        // Keep the surplus orientation once, at its first occurrence.
+        let keep_dir = match ups.cmp(&downs) {
+            std::cmp::Ordering::Greater => Some(false),
+            std::cmp::Ordering::Less => Some(true),
+            std::cmp::Ordering::Equal => None,
+        };
+        let mut kept = false;
+        for g in group {
+            if Some(g.flipped) == keep_dir && !kept {
+                kept = true;
+            } else {
+                drop.push(g.index);
+            }
+        }
+    }
+    if drop.is_empty() {
+        return;
+    }
+    drop.sort_unstable();
+    let mut d = 0;
+    let mut w = 0;
+    for r in 0..triangles.len() {
+        if d < drop.len() && drop[d] == r {
+            d += 1;
+            continue;
+        }
+        triangles[w] = triangles[r];
+        levels[w] = levels[r];
+        w += 1;
+    }
+    triangles.truncate(w);
+    levels.truncate(w);
+}
+
+/// Start of each part when parts of the given lengths are laid end to end.
+fn offsets(lengths: &[usize]) -> Vec<usize> {
+    lengths
+        .iter()
+        .scan(0, |acc, &l| {
+            let start = *acc;
+            *acc += l;
+            Some(start)
+        })
+        .collect()
+}
+
+/// `v` cut into consecutive parts of the given lengths.
+fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
+    lengths
+        .iter()
+        .map(|&l| {
+            let (part, rest) = std::mem::take(&mut v).split_at_mut(l);
+            v = rest;
+            part
+        })
+        .collect()
+}
+
+/// `n` default values, written in parallel; an error when the memory is
+/// not available.
+fn zeroed<T: Default + Clone + Send + Sync>(n: usize) -> Result<Vec<T>, Error> {
+    let mut v = Vec::new();
+    reserve(&mut v, n)?;
+    v.par_extend(rayon::iter::repeat_n(T::default(), n));
+    Ok(v)
+}
+
+/// Reserves room for `n` more elements, or reports the bytes missing.
+pub(crate) fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
+    v.try_reserve_exact(n)
+        .map_err(|_| Error::OutOfMemory(n.saturating_mul(std::mem::size_of::<T>())))
+}
