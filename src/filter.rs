@@ -44,9 +44,10 @@ pub trait ReconstructionFilter: Sync {
     /// cubic polynomial in `t` there: the coefficients `(a2, a3)` such
     /// that `F(p + t d) = F(p) + t ∇F(p)·d + a2 t² + a3 t³` exactly. Lets
     /// refinement search a line for `S_K` without evaluating the filter
-    /// again. Used only for points inside a cell (on a shared face both
-    /// cells must compute the same bits, which only the filter's own
-    /// evaluations promise). Default: `None` (not a cubic along lines).
+    /// again. Face-consistent like the rest of the filter: for `p` on a
+    /// shared face and `d` along it, both cells must return coefficients
+    /// that give bit-identical polynomial values. Default: `None` (not a
+    /// cubic along lines).
     #[inline]
     fn line_cubic(_cell: &Self::Cell, _p: DVec3, _d: DVec3) -> Option<(f64, f64)> {
         None
@@ -173,6 +174,13 @@ impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
 /// coordinate, so its Hessian has a zero diagonal and its Taylor series
 /// ends with the mixed third derivative: `a2 = Σ_{i<j} d_i d_j H_ij(p)`,
 /// `a3 = d_x d_y d_z ∂³F/∂x∂y∂z`.
+///
+/// Face-consistent: on a face `x = 1` of one cell and `x = 0` of the next,
+/// with `d_x = 0`, the only term that is not a signed zero is
+/// `d_y d_z H_yz`, and `H_yz` there is the twist of the shared face,
+/// computed from its four samples in the same order by both cells (the
+/// interpolation across the cell returns its end exactly). Signed zeros differ at most in sign,
+/// which leaves the polynomial's values unchanged.
 ///
 /// ```
 /// use glam::DVec3;

@@ -192,11 +192,12 @@ pub enum Test {
 /// Decides whether `p` is within `epsilon` of `S_K` along the gradient line
 /// (with the same fixed axes as [`project`]). Usually settled without
 /// [`project`]: a near sample by one value at `epsilon` in the Newton
-/// direction, a far one by a Newton walk that brackets the root. Inside a
-/// cell, where a filter that is a cubic along lines gives its polynomial
-/// ([`ReconstructionFilter::line_cubic`]), the walk runs on the polynomial
-/// instead of the filter. A pure function of its arguments, like
-/// [`project`].
+/// direction, a far one by a walk that brackets the root. When the filter
+/// is a cubic along lines ([`ReconstructionFilter::line_cubic`]) the walk
+/// runs on that polynomial (Halley steps) instead of evaluating the filter.
+/// The line is parametrised by the gradient itself, `p + s ∇F`, which
+/// keeps divisions off the common path. A pure function of its arguments,
+/// like [`project`].
 pub fn test<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
@@ -214,57 +215,45 @@ pub fn test<F: ReconstructionFilter>(
     };
     let (v0, g0) = F::value_gradient(cell, p);
     let g = mask(g0);
-    let len = g.length();
-    if len > 0.0 && len.is_finite() {
+    let len2 = g.length_squared();
+    if len2 > 0.0 && len2.is_finite() {
         let q0 = v0 - iso;
         if q0 == 0.0 {
             return Test::Near;
         }
-        let d = g / len;
-        {
-            let cubic = if fixed == 0 {
-                F::line_cubic(cell, p, d)
-            } else {
-                None
-            };
-            let line = Line {
-                p,
-                d,
-                q0,
-                slope0: len,
-                epsilon,
-            };
-            let found = match cubic {
-                // Halley's steps on the polynomial: cubic convergence, so
-                // a far root usually takes two steps instead of four.
-                Some((a2, a3)) => {
-                    let halley = |t: f64| {
-                        let q = q0 + t * (len + t * (a2 + t * a3));
-                        let s1 = len + t * (2.0 * a2 + 3.0 * a3 * t);
-                        let s2 = 2.0 * a2 + 6.0 * a3 * t;
-                        (q, -2.0 * q * s1 / (2.0 * s1 * s1 - q * s2))
-                    };
-                    line.walk(
-                        |t| q0 + t * (len + t * (a2 + t * a3)),
-                        halley(0.0).1,
-                        halley,
-                    )
-                }
-                None => line.walk(
-                    |t| F::value(cell, p + d * t) - iso,
-                    -q0 / len,
-                    |t| {
-                        let (v, g) = F::value_gradient(cell, p + d * t);
-                        let q = v - iso;
-                        (q, -q / mask(g).dot(d))
-                    },
-                ),
-            };
-            match found {
-                Some(None) => return Test::Near,
-                Some(Some(t)) => return Test::Far(p + d * t),
-                None => {}
+        let line = Line {
+            p,
+            g,
+            q0,
+            slope0: len2,
+            // Epsilon in units of the parameter s.
+            reach: epsilon / len2.sqrt(),
+        };
+        let found = match F::line_cubic(cell, p, g) {
+            Some((a2, a3)) => {
+                let q = |s: f64| q0 + s * (len2 + s * (a2 + s * a3));
+                let halley = |s: f64| {
+                    let q = q(s);
+                    let q1 = len2 + s * (2.0 * a2 + 3.0 * a3 * s);
+                    let q2 = 2.0 * a2 + 6.0 * a3 * s;
+                    (q, -2.0 * q * q1 / (2.0 * q1 * q1 - q * q2))
+                };
+                line.walk(q, || halley(0.0).1, halley)
             }
+            None => line.walk(
+                |s| F::value(cell, p + g * s) - iso,
+                || -q0 / len2,
+                |s| {
+                    let (v, gs) = F::value_gradient(cell, p + g * s);
+                    let q = v - iso;
+                    (q, -q / mask(gs).dot(g))
+                },
+            ),
+        };
+        match found {
+            Some(None) => return Test::Near,
+            Some(Some(s)) => return Test::Far(p + g * s),
+            None => {}
         }
     }
     match project::<F>(cell, iso, p, fixed) {
@@ -274,84 +263,81 @@ pub fn test<F: ReconstructionFilter>(
     }
 }
 
-/// A gradient line through a sample point, for [`test`]: `q(t) = F - iso`
-/// at distance `t` along the unit direction, inside `[lo, hi]`.
+/// A gradient line through a sample point, for [`test`]: `q(s) = F - iso`
+/// at `p + s g`, with `q(0) = q0` and `q'(0) = slope0`; `reach` is epsilon
+/// in units of `s`.
 struct Line {
     p: DVec3,
-    d: DVec3,
+    g: DVec3,
     q0: f64,
     slope0: f64,
-    epsilon: f64,
+    reach: f64,
 }
 
 impl Line {
-    /// `Some(None)`: a root within epsilon; `Some(Some(t))`: the root the
-    /// walk brackets, farther than epsilon; `None`: undecided. `q(t)` gives
-    /// the value, `q_step(t)` the value and the step to take from `t` (a
-    /// Newton or Halley step), `step0` the step from 0.
+    /// `Some(None)`: a root within epsilon; `Some(Some(s))`: the root the
+    /// walk brackets, farther than epsilon; `None`: undecided. `q(s)` gives
+    /// the value, `q_step(s)` the value and the step to take from `s` (a
+    /// Newton or Halley step), `step0()` the step from 0.
     #[inline(always)]
     fn walk(
         &self,
         q: impl Fn(f64) -> f64,
-        step0: f64,
+        step0: impl FnOnce() -> f64,
         q_step: impl Fn(f64) -> (f64, f64),
     ) -> Option<Option<f64>> {
         let &Line {
             p,
-            d,
+            g,
             q0,
             slope0,
-            epsilon,
+            reach,
         } = self;
-        // Most samples are near: when the first Newton step stays within
-        // epsilon, one value at epsilon in its direction (inside the cell)
-        // settles it if the sign changes there. The cell's bounds on the
-        // line cost six divisions, so they wait until the point at epsilon
-        // turns out to lie outside.
-        let t1 = -q0 / slope0;
-        let mut bounds = None;
-        if t1.abs() <= epsilon {
-            let mut te = if t1 < 0.0 { -epsilon } else { epsilon };
-            let pe = p + d * te;
-            if !(pe.cmpge(DVec3::ZERO).all() && pe.cmple(DVec3::ONE).all()) {
-                let (lo, hi) = clip_to_cell(p, d)?;
-                bounds = Some((lo, hi));
-                te = te.clamp(lo, hi);
+        let inside = |s: f64| {
+            let x = p + g * s;
+            x.cmpge(DVec3::ZERO).all() && x.cmple(DVec3::ONE).all()
+        };
+        // Most samples are near: when the first Newton step (-q0 / slope0)
+        // stays within epsilon, one value at epsilon in its direction
+        // (inside the cell) settles it if the sign changes there. The
+        // cell's bounds on the line cost six divisions: they are computed
+        // only when the point at epsilon lies outside the cell.
+        if q0.abs() <= reach * slope0 {
+            let mut se = if q0 > 0.0 { -reach } else { reach };
+            if !inside(se) {
+                let (lo, hi) = clip_to_cell(p, g)?;
+                se = se.clamp(lo, hi);
             }
-            let qe = q(te);
+            let qe = q(se);
             if qe == 0.0 || (qe < 0.0) != (q0 < 0.0) {
                 return Some(None);
             }
         }
-        let (lo, hi) = match bounds {
-            Some(b) => b,
-            None => clip_to_cell(p, d)?,
-        };
         let tol = 1e-13 * q0.abs();
         // Walk along the line until it brackets a root.
-        let (mut t, mut qt, mut step) = (0.0, q0, step0);
+        let (mut s, mut qs, mut step) = (0.0, q0, step0());
         for _ in 0..6 {
-            let tn = t + step;
-            if !(tn >= lo && tn <= hi) {
+            let sn = s + step;
+            if !(sn.is_finite() && inside(sn)) {
                 return None;
             }
-            let (qn, sn) = q_step(tn);
+            let (qn, stepn) = q_step(sn);
             if qn.abs() > tol && (qn < 0.0) == (q0 < 0.0) {
-                t = tn;
-                qt = qn;
-                step = sn;
+                s = sn;
+                qs = qn;
+                step = stepn;
                 continue;
             }
-            // A root lies between t and tn (both on one side of 0).
-            if t.abs().max(tn.abs()) <= epsilon {
+            // A root lies between s and sn (both on one side of 0).
+            if s.abs().max(sn.abs()) <= reach {
                 return Some(None);
             }
             let r = if qn.abs() <= tol {
-                tn
+                sn
             } else {
-                solve(&q, t, qt, tn, qn)
+                solve(&q, s, qs, sn, qn)
             };
-            return Some((r.abs() > epsilon).then_some(r));
+            return Some((r.abs() > reach).then_some(r));
         }
         None
     }
@@ -537,6 +523,60 @@ mod tests {
             }
         }
         assert!(near > 5000 && far > 5000, "{near} near, {far} far");
+    }
+
+    #[test]
+    fn shared_faces_decide_bit_identically() {
+        // Two cells sharing a face, for each axis: a sample point on the
+        // face, tested with that axis fixed, must give the same decision
+        // and the same split point (up to the fixed coordinate) from both.
+        use crate::tables::cube::CORNERS;
+        let mut x = 99u64;
+        let mut rnd = || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut far = 0;
+        for n in 0..6000 {
+            let axis = n % 3;
+            // Samples of a 2-cell block along `axis`: 12 values.
+            let vals: Vec<f64> = (0..12).map(|_| rnd() * 2.0 - 1.0).collect();
+            let at = |cell: usize, k: usize| {
+                let c = CORNERS[k];
+                let mut q = [c[0] as usize, c[1] as usize, c[2] as usize];
+                q[axis] += cell;
+                let (u, v) = match axis {
+                    0 => (q[1], q[2]),
+                    1 => (q[0], q[2]),
+                    _ => (q[0], q[1]),
+                };
+                vals[q[axis] * 4 + v * 2 + u]
+            };
+            let a: [f64; 8] = std::array::from_fn(|k| at(0, k));
+            let b: [f64; 8] = std::array::from_fn(|k| at(1, k));
+            let mut pa = DVec3::new(rnd(), rnd(), rnd());
+            pa[axis] = 1.0;
+            let mut pb = pa;
+            pb[axis] = 0.0;
+            let iso = trilinear_value(&a, pa) + (rnd() - 0.5) * 0.05;
+            let fixed = 1u8 << axis;
+            match (
+                test::<Tri>(&a, iso, pa, fixed, 0.001),
+                test::<Tri>(&b, iso, pb, fixed, 0.001),
+            ) {
+                (Test::Far(qa), Test::Far(qb)) => {
+                    far += 1;
+                    assert_eq!((qa[axis], qb[axis]), (1.0, 0.0));
+                    for k in (0..3).filter(|&k| k != axis) {
+                        assert_eq!(qa[k].to_bits(), qb[k].to_bits(), "{qa} vs {qb}");
+                    }
+                }
+                (ra, rb) => assert_eq!(ra == Test::Near, rb == Test::Near, "{ra:?} vs {rb:?}"),
+            }
+        }
+        assert!(far > 1000, "{far} far samples");
     }
 
     #[test]

@@ -397,13 +397,30 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             // compared so that counting (distinct ids) agrees with output.
             let pos = |s: Slot| slot(s).1;
             let mut keep = [true; 6];
-            for x in 0..n {
+            // When the new points differ from each other and from the
+            // corners, every child has three distinct corners and no two
+            // children share them: the checks below are skipped.
+            let mut fresh = [DVec3::ZERO; 4];
+            let mut nfresh = 0;
+            for e in 0..3 {
+                if mids[e].is_some() {
+                    fresh[nfresh] = mid_p[e];
+                    nfresh += 1;
+                }
+            }
+            if let Some((_, c)) = centre_data {
+                fresh[nfresh] = c;
+                nfresh += 1;
+            }
+            let distinct = (0..nfresh)
+                .all(|a| !t.p.contains(&fresh[a]) && (a + 1..nfresh).all(|b| fresh[a] != fresh[b]));
+            for x in 0..if distinct { 0 } else { n } {
                 let [a, b, c] = children[x].map(pos);
                 if a == b || b == c || a == c {
                     keep[x] = false;
                 }
             }
-            for x in 0..n {
+            for x in 0..if distinct { 0 } else { n } {
                 for y in x + 1..n {
                     if keep[x]
                         && keep[y]

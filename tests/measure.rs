@@ -291,8 +291,14 @@ fn c_api_matches_rust() {
         PmcStatus::Ok
     );
     assert_eq!(out.samples, want.samples);
-    assert!((out.max - want.max).abs() <= 1e-9 * (1.0 + want.max));
-    assert!((out.mean - want.mean).abs() <= 1e-9 * (1.0 + want.mean));
+    // The C entry point takes world coordinates and converts them back to
+    // index space; points that move by a rounding error can end the
+    // certified search at another point of the tolerance band, so the two
+    // agree to within the certified tolerance (not to the last bit).
+    let o = MeasureOptions::default();
+    let band = |d: f64| o.tolerance + o.relative_tolerance * d;
+    assert!((out.max - want.max).abs() <= band(want.max));
+    assert!((out.mean - want.mean).abs() <= band(want.mean));
     assert_eq!(
         call(std::ptr::null(), pts.as_ptr(), tris.as_ptr(), &mut out),
         PmcStatus::NullArgument
