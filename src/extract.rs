@@ -27,7 +27,10 @@ use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
 use crate::project::edge_crossing;
-use crate::refine::{shared_fixed_axes, sound_patch, Counters, EdgeCache, Refinable, Refiner, Tri};
+use crate::refine::{
+    faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
+    Counters, EdgeCache, Refinable, Refiner, Tri,
+};
 use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
@@ -303,7 +306,12 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
                 loop {
                     match rx.recv_timeout(Duration::from_millis(20)) {
                         Ok(r) => break r,
-                        Err(_) => {
+                        // The worker panicked (a bug): the scope re-raises
+                        // its panic on return, for the caller's guard.
+                        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                            break Vec::new();
+                        }
+                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                             let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
                             if !reporter.report(weight.0 + weight.1 * done.min(1.0)) {
                                 cancel.store(true, Ordering::Relaxed);
@@ -413,6 +421,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
     let mut edges = FlatMap::<u32>::default();
+    let mut seen = FlatMap::<()>::default();
     let [nx, ny, _] = sh.cell_dims;
     let count_only = mode == Mode::Count;
     let cap = match mode {
@@ -668,11 +677,31 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 let (t_start, v_start) = (out.tris.len(), out.verts.len());
                 let before = out.counters.clone();
                 local.clear();
+                // Whether refinement merged two of the cell's points (split
+                // points that weld onto another point, which straight
+                // gradient lines meeting on S_K can cause). Each new point
+                // is created once (the edge cache hands its id to the
+                // triangle on the other side), so any weld inside the cell,
+                // or onto one of its Marching Cubes points, or twice onto
+                // the same point of a neighbour, is a merge. Without one,
+                // the patch is a subdivision of the Marching Cubes patch
+                // and only its facing needs checking.
                 // Second attempt (only when the first gave an unsound patch):
                 // interior edges and centres stay whole. Edges on the cell's
                 // faces decide as before, so neighbours still match.
                 for attempt in 0..2 {
                     cache.clear();
+                    let mut merged = false;
+                    let mut area = DVec3::ZERO;
+                    seen.clear();
+                    for t in &kept {
+                        for &v in t {
+                            seen.insert_new(v as u64, ());
+                        }
+                    }
+                    // Distinct ids for new points when counting (the edge
+                    // cache is keyed by ids; 0..16 are the cell's own points).
+                    let mut next_id = 16u32;
                     let mut refiner = Refiner::<F> {
                         cell: &fc,
                         iso: sh.iso,
@@ -710,9 +739,6 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                             near: 0,
                         };
                         if count_only {
-                            // Distinct ids for new points (the edge cache is
-                            // keyed by ids; 0..16 are the cell's own points).
-                            let mut next_id = 16u32;
                             refiner.run(root, false, &mut |_| {}, &mut |_| {
                                 next_id += 1;
                                 next_id
@@ -720,6 +746,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         } else {
                             let verts = &mut out.verts;
                             let (map, local) = (&mut map, &mut local);
+                            let (merged, area, seen) = (&mut merged, &mut area, &mut seen);
                             let tris = &mut out.tris;
                             let levels = &mut out.levels;
                             refiner.run(
@@ -728,6 +755,7 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                 &mut |tri: &Tri| {
                                     tris.push(tri.v);
                                     levels.push(tri.level);
+                                    *area += vector_area(tri.p);
                                 },
                                 &mut |p: DVec3| {
                                     let gp = cell_f + p;
@@ -739,10 +767,20 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                     let inner =
                                         p.cmpgt(DVec3::ZERO).all() && p.cmplt(DVec3::ONE).all();
                                     let m = if inner { &mut *local } else { &mut *map };
-                                    *m.entry(key(gp)).or_insert_with(|| {
+                                    let mut new = false;
+                                    let id = *m.entry(key(gp)).or_insert_with(|| {
+                                        new = true;
                                         verts.push(gp);
                                         next
-                                    })
+                                    });
+                                    if !new
+                                        && (inner
+                                            || id as usize >= v_start
+                                            || seen.insert_new(id as u64, ()).is_some())
+                                    {
+                                        *merged = true;
+                                    }
+                                    id
                                 },
                             );
                         }
@@ -750,13 +788,21 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     if count_only
                         || attempt == 1
                         || !refinable.interior
-                        || sound_patch(
-                            cell_f,
-                            &out.tris[t_start..],
-                            &out.verts,
-                            &pos_of,
-                            &mut edges,
-                        )
+                        || if merged {
+                            sound_patch(
+                                cell_f,
+                                &out.tris[t_start..],
+                                &out.verts,
+                                &pos_of,
+                                &mut edges,
+                            )
+                        } else {
+                            debug_assert!(
+                                soundly_connected(&out.tris[t_start..], &mut edges),
+                                "a patch without merged points is a subdivision"
+                            );
+                            faces_like_marching_cubes(area, &pos_of)
+                        }
                     {
                         break;
                     }

@@ -68,6 +68,23 @@ impl<V: Copy + Default> FlatMap<V> {
         }
     }
 
+    /// The value stored under `key`, to modify in place.
+    #[inline]
+    pub fn get_mut(&mut self, key: u64) -> Option<&mut V> {
+        let mask = self.slots.len() - 1;
+        let mut i = self.home(key);
+        loop {
+            let (g, k, _) = self.slots[i];
+            if g != self.generation {
+                return None;
+            }
+            if k == key {
+                return Some(&mut self.slots[i].2);
+            }
+            i = (i + 1) & mask;
+        }
+    }
+
     /// Stores `value` under `key` unless the key is present; returns the
     /// value already stored, if any (which is then kept).
     #[inline]
@@ -129,6 +146,13 @@ mod tests {
                 reference.entry(key).or_insert(value);
             }
             for key in 0..512u64 {
+                assert_eq!(ours.get(key), reference.get(&key).copied());
+                // Changes in place land in the map.
+                assert_eq!(ours.get_mut(key).is_some(), reference.contains_key(&key));
+                if let (Some(v), Some(r)) = (ours.get_mut(key), reference.get_mut(&key)) {
+                    *v ^= 0x5a5a;
+                    *r ^= 0x5a5a;
+                }
                 assert_eq!(ours.get(key), reference.get(&key).copied());
             }
         }

@@ -95,9 +95,11 @@ impl Refinable {
     }
 }
 
-/// Split decisions per edge of one cell, keyed by the edge's vertex ids
-/// (smaller id in the high half).
-pub(crate) type EdgeCache = FlatMap<Option<DVec3>>;
+/// Per edge of one cell, keyed by the edge's vertex ids (smaller id in the
+/// high half): the split decision, and the id of the split point once a
+/// triangle has split the edge (`u32::MAX` before), so that the triangle
+/// on the other side reuses the point instead of welding it again.
+pub(crate) type EdgeCache = FlatMap<(Option<DVec3>, u32)>;
 
 /// Refinement statistics, summed over cells.
 #[derive(Debug, Clone, Default)]
@@ -160,12 +162,25 @@ pub(crate) fn sound_patch(
     mc_pos: &[DVec3],
     edges: &mut FlatMap<u32>,
 ) -> bool {
+    if !soundly_connected(tris, edges) {
+        return false;
+    }
+    let mut area = DVec3::ZERO;
+    for t in tris {
+        area += vector_area(t.map(|v| verts[v as usize] - origin));
+    }
+    faces_like_marching_cubes(area, mc_pos)
+}
+
+/// The combinatorial half of [`sound_patch`]: no corner repeated, no two
+/// triangles on the same corners, every edge used at most once in each
+/// direction. `edges` is scratch.
+pub(crate) fn soundly_connected(tris: &[[u32; 3]], edges: &mut FlatMap<u32>) -> bool {
     // Each directed edge, packed into a word, maps to the third corner of
     // its triangle: a second triangle on the same corners either repeats a
     // directed edge (same winding) or holds the reverse of one with the
     // same third corner (opposite winding).
     edges.clear();
-    let mut area = DVec3::ZERO;
     for t in tris {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             return false;
@@ -176,12 +191,26 @@ pub(crate) fn sound_patch(
                 return false;
             }
         }
-        let p = t.map(|v| verts[v as usize] - origin);
-        area += (p[1] - p[0]).cross(p[2] - p[0]);
     }
+    true
+}
+
+/// Twice the vector area of a triangle.
+#[inline]
+pub(crate) fn vector_area(p: [DVec3; 3]) -> DVec3 {
+    (p[1] - p[0]).cross(p[2] - p[0])
+}
+
+/// Whether a refined patch of vector area `area` (twice the area) faces
+/// the way of the Marching Cubes patch (`mc_pos`, three local positions
+/// per triangle), or that patch is nearly closed (its direction means
+/// nothing then). The geometric half of [`sound_patch`]: when refinement
+/// merged no two points of a cell (see the caller), its patch is a
+/// subdivision of the Marching Cubes patch and this is all that can fail.
+pub(crate) fn faces_like_marching_cubes(area: DVec3, mc_pos: &[DVec3]) -> bool {
     let (mut mc_area, mut mc_abs) = (DVec3::ZERO, 0.0);
     for p in mc_pos.chunks_exact(3) {
-        let a = (p[1] - p[0]).cross(p[2] - p[0]);
+        let a = vector_area([p[0], p[1], p[2]]);
         mc_area += a;
         mc_abs += a.length();
     }
@@ -252,16 +281,17 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             }
             let mut mids: [Option<DVec3>; 3] = [None; 3];
             let mut midpoint = [DVec3::ZERO; 3];
+            let mut keys = [0u64; 3];
             for e in 0..3 {
                 midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
                 if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
                     let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
-                    let k = (a.min(b) as u64) << 32 | a.max(b) as u64;
-                    mids[e] = match self.cache.get(k) {
-                        Some(r) => r,
+                    keys[e] = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                    mids[e] = match self.cache.get(keys[e]) {
+                        Some(r) => r.0,
                         None => {
                             let r = self.test(midpoint[e], t.fixed[e]);
-                            self.cache.insert_new(k, r);
+                            self.cache.insert_new(keys[e], (r, u32::MAX));
                             r
                         }
                     };
@@ -306,7 +336,13 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             for e in 0..3 {
                 if let Some(q) = mids[e] {
                     mid_p[e] = q;
-                    mid_id[e] = vertex(q);
+                    // A split edge was tested, so it has an entry.
+                    if let Some(entry) = self.cache.get_mut(keys[e]) {
+                        if entry.1 == u32::MAX {
+                            entry.1 = vertex(q);
+                        }
+                        mid_id[e] = entry.1;
+                    }
                 }
             }
             let centre_data = centre.map(|c| (vertex(c), c));
