@@ -51,37 +51,39 @@ impl<V: Copy + Default> FlatMap<V> {
         (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> self.shift) as usize
     }
 
-    /// The value stored under `key`.
+    /// The slot holding `key` and `true`, or the empty slot where it would
+    /// go and `false`.
     #[inline]
-    pub fn get(&self, key: u64) -> Option<V> {
-        let mask = self.slots.len() - 1;
-        let mut i = self.home(key);
-        loop {
-            let (g, k, v) = self.slots[i];
-            if g != self.generation {
-                return None;
-            }
-            if k == key {
-                return Some(v);
-            }
-            i = (i + 1) & mask;
-        }
-    }
-
-    /// The value stored under `key`, to modify in place.
-    #[inline]
-    pub fn get_mut(&mut self, key: u64) -> Option<&mut V> {
+    fn probe(&self, key: u64) -> (usize, bool) {
         let mask = self.slots.len() - 1;
         let mut i = self.home(key);
         loop {
             let (g, k, _) = self.slots[i];
             if g != self.generation {
-                return None;
+                return (i, false);
             }
             if k == key {
-                return Some(&mut self.slots[i].2);
+                return (i, true);
             }
             i = (i + 1) & mask;
+        }
+    }
+
+    /// The value stored under `key`.
+    #[inline]
+    pub fn get(&self, key: u64) -> Option<V> {
+        let (i, found) = self.probe(key);
+        found.then(|| self.slots[i].2)
+    }
+
+    /// The value stored under `key`, to modify in place.
+    #[inline]
+    pub fn get_mut(&mut self, key: u64) -> Option<&mut V> {
+        let (i, found) = self.probe(key);
+        if found {
+            Some(&mut self.slots[i].2)
+        } else {
+            None
         }
     }
 
@@ -92,20 +94,13 @@ impl<V: Copy + Default> FlatMap<V> {
         if 2 * (self.len + 1) > self.slots.len() {
             self.grow();
         }
-        let mask = self.slots.len() - 1;
-        let mut i = self.home(key);
-        loop {
-            let (g, k, v) = self.slots[i];
-            if g != self.generation {
-                self.slots[i] = (self.generation, key, value);
-                self.len += 1;
-                return None;
-            }
-            if k == key {
-                return Some(v);
-            }
-            i = (i + 1) & mask;
+        let (i, found) = self.probe(key);
+        if found {
+            return Some(self.slots[i].2);
         }
+        self.slots[i] = (self.generation, key, value);
+        self.len += 1;
+        None
     }
 
     /// Doubles the table, keeping the entries.

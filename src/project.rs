@@ -472,6 +472,17 @@ mod tests {
         let _ = Grid::<f64>::new; // keep the type in scope for the alias
     }
 
+    /// Uniform numbers in [0, 1) from a seed (a linear congruential
+    /// generator: reproducible, no dependency).
+    fn uniform(mut x: u64) -> impl FnMut() -> f64 {
+        move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The trilinear filter without its line polynomial: `test` then
     /// evaluates the filter along the line.
     struct Evaluated;
@@ -493,13 +504,7 @@ mod tests {
         // Random cells, sample points at distances around epsilon from
         // S_K: the walk on the polynomial must reach the same decisions
         // and the same split points as the walk on filter values.
-        let mut x = 7u64;
-        let mut rnd = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(7);
         let (mut near, mut far) = (0, 0);
         for n in 0..20000 {
             let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
@@ -531,13 +536,7 @@ mod tests {
         // face, tested with that axis fixed, must give the same decision
         // and the same split point (up to the fixed coordinate) from both.
         use crate::tables::cube::CORNERS;
-        let mut x = 99u64;
-        let mut rnd = || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(99);
         let mut far = 0;
         for n in 0..6000 {
             let axis = n % 3;
