@@ -195,8 +195,8 @@ pub enum Test {
 /// direction, a far one by a walk that brackets the root. When the filter
 /// is a cubic along lines ([`ReconstructionFilter::line_cubic`]) the walk
 /// runs on that polynomial (Halley steps) instead of evaluating the filter.
-/// The line is parametrised by the gradient itself, `p + s ∇F`, which
-/// keeps divisions off the common path. A pure function of its arguments,
+/// On the polynomial the line is parametrised by the gradient itself,
+/// `p + s ∇F`, which keeps divisions off the common path. A pure function of its arguments,
 /// like [`project`].
 pub fn test<F: ReconstructionFilter>(
     cell: &F::Cell,
@@ -221,16 +221,18 @@ pub fn test<F: ReconstructionFilter>(
         if q0 == 0.0 {
             return Test::Near;
         }
-        let line = Line {
-            p,
-            g,
-            q0,
-            slope0: len2,
-            // Epsilon in units of the parameter s.
-            reach: epsilon / len2.sqrt(),
-        };
         let found = match F::line_cubic(cell, p, g) {
+            // On the polynomial the line is parametrised by the gradient
+            // itself, p + s g: no normalisation, and epsilon is compared
+            // without a division.
             Some((a2, a3)) => {
+                let line = Line {
+                    p,
+                    g,
+                    q0,
+                    slope0: len2,
+                    reach: epsilon / len2.sqrt(),
+                };
                 let q = |s: f64| q0 + s * (len2 + s * (a2 + s * a3));
                 let halley = |s: f64| {
                     let q = q(s);
@@ -239,20 +241,34 @@ pub fn test<F: ReconstructionFilter>(
                     (q, -2.0 * q * q1 / (2.0 * q1 * q1 - q * q2))
                 };
                 line.walk(q, || halley(0.0).1, halley)
+                    .map(|r| r.map(|s| p + g * s))
             }
-            None => line.walk(
-                |s| F::value(cell, p + g * s) - iso,
-                || -q0 / len2,
-                |s| {
-                    let (v, gs) = F::value_gradient(cell, p + g * s);
-                    let q = v - iso;
-                    (q, -q / mask(gs).dot(g))
-                },
-            ),
+            // On the filter, by distance along the unit direction.
+            None => {
+                let len = len2.sqrt();
+                let d = g / len;
+                let line = Line {
+                    p,
+                    g: d,
+                    q0,
+                    slope0: len,
+                    reach: epsilon,
+                };
+                line.walk(
+                    |t| F::value(cell, p + d * t) - iso,
+                    || -q0 / len,
+                    |t| {
+                        let (v, gt) = F::value_gradient(cell, p + d * t);
+                        let q = v - iso;
+                        (q, -q / mask(gt).dot(d))
+                    },
+                )
+                .map(|r| r.map(|t| p + d * t))
+            }
         };
         match found {
             Some(None) => return Test::Near,
-            Some(Some(s)) => return Test::Far(p + g * s),
+            Some(Some(q)) => return Test::Far(q),
             None => {}
         }
     }
@@ -264,8 +280,8 @@ pub fn test<F: ReconstructionFilter>(
 }
 
 /// A gradient line through a sample point, for [`test`]: `q(s) = F - iso`
-/// at `p + s g`, with `q(0) = q0` and `q'(0) = slope0`; `reach` is epsilon
-/// in units of `s`.
+/// at `p + s g` (`g` the gradient or its unit direction), with `q(0) = q0`
+/// and `q'(0) = slope0`; `reach` is epsilon in units of `s`.
 struct Line {
     p: DVec3,
     g: DVec3,

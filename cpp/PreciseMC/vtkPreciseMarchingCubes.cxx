@@ -57,6 +57,13 @@ vtkStandardNewMacro(vtkPreciseMarchingCubes);
 // Helpers around the C API: owning handles, type mapping, progress.
 namespace
 {
+// Ghost samples the cubic filters read around a piece. One is what the
+// piece's own cells need; the second gives the ghost cells next to the
+// piece their whole 4x4x4 neighbourhood, so they compute what the serial
+// run computes there: their points on the piece's faces weld as in the
+// serial run, and a triangle lying flat in such a face meets its
+// duplicate from the ghost side and is removed as in the serial run.
+constexpr int CubicGhostSamples = 2;
 
 struct OptionsDeleter
 {
@@ -468,8 +475,9 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   }
   // The cubic filters read one sample more around every cell: the cells of
   // the piece (ContourExtent, from RequestUpdateExtent()) are contoured
-  // together with the ghost layer the input holds around them, and the
-  // triangles of the ghost cells are dropped below. The prefilter of
+  // together with the ghost layer the input holds around them
+  // (CubicGhostSamples), and the triangles of the ghost cells are dropped
+  // below. The prefilter of
   // BSplineInterpolating couples whole lines of samples, so it reads all
   // the input holds (the whole volume, as requested).
   const bool cubic = this->ReconstructionFilter != RECONSTRUCTION_TRILINEAR;
@@ -490,10 +498,12 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       extent[2 * i] = std::max(dataExtent[2 * i], this->ContourExtent[2 * i]);
       extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], this->ContourExtent[2 * i + 1]);
-      sampleExtent[2 * i] =
-        global ? dataExtent[2 * i] : std::max(dataExtent[2 * i], extent[2 * i] - 1);
-      sampleExtent[2 * i + 1] =
-        global ? dataExtent[2 * i + 1] : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + 1);
+      sampleExtent[2 * i] = global
+        ? dataExtent[2 * i]
+        : std::max(dataExtent[2 * i], extent[2 * i] - CubicGhostSamples);
+      sampleExtent[2 * i + 1] = global
+        ? dataExtent[2 * i + 1]
+        : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + CubicGhostSamples);
     }
   }
   int dims[3];
@@ -1009,9 +1019,9 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 // but without ghost levels: the surface of a ghost layer would belong to
 // two pieces. The cubic filters read one more sample around every cell: the
 // piece's extent is kept in ContourExtent (the cells contoured) and the
-// input is asked for one ghost level around it (for an update extent given
-// as an extent, the extent grows by one sample instead), whose cells are
-// contoured but not output. BSplineInterpolating prefilters whole lines of
+// input is asked for CubicGhostSamples ghost levels around it (for an update
+// extent given as an extent, the extent grows by as many samples instead),
+// whose cells are contoured but not output. BSplineInterpolating prefilters whole lines of
 // samples, so it asks for the whole volume in one piece.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
@@ -1073,15 +1083,15 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     }
     else if (numPieces > 1)
     {
-      ghostLevels = 1;
+      ghostLevels = CubicGhostSamples;
     }
     else
     {
       int grown[6];
       for (int i = 0; i < 3; ++i)
       {
-        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - 1);
-        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + 1);
+        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - CubicGhostSamples);
+        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + CubicGhostSamples);
       }
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), grown, 6);
     }

@@ -57,8 +57,10 @@
  * share their boundary samples, so the union of the pieces' surfaces is
  * the surface of the whole volume, without cracks or overlaps. The cubic
  * filters read one more layer of samples around every cell, so they ask
- * for one ghost level (BSplineInterpolating, whose prefilter is global,
- * for the whole volume) and keep only the triangles of the piece's own
+ * for two ghost levels (the second gives the ghost cells next to the piece
+ * their whole neighbourhood; BSplineInterpolating, whose prefilter is
+ * global, asks for the whole volume) and keep only the triangles of the
+ * piece's own
  * cells: the union is then again exactly the serial surface (see
  * SetReconstructionFilter()).
  *
@@ -328,7 +330,7 @@ public:
    * guaranteed about the topology of the cubic isosurface. The cubic
    * filters read the 4x4x4 samples around a cell (the border sample
    * repeated at the volume's border), so in a distributed pipeline they
-   * request one ghost level of input (BSplineInterpolating, whose
+   * request two ghost levels of input (BSplineInterpolating, whose
    * prefilter couples all samples of a line, requests the whole volume on
    * every piece) and contour only the piece's own cells: the union of the
    * pieces is identical to the serial surface. Values outside 0..3 are
