@@ -763,9 +763,13 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                                     // A point inside the open cell belongs to
                                     // no other cell: a small per-cell map
                                     // welds it (same ids, less memory
-                                    // traffic than the slab's map).
-                                    let inner =
-                                        p.cmpgt(DVec3::ZERO).all() && p.cmplt(DVec3::ONE).all();
+                                    // traffic than the slab's map). Decided
+                                    // on the global coordinates: far from the
+                                    // origin, a point just inside the cell
+                                    // can round onto its face, where it must
+                                    // weld with the face's other points.
+                                    let inner = gp.cmpgt(cell_f).all()
+                                        && gp.cmplt(cell_f + DVec3::ONE).all();
                                     let m = if inner { &mut *local } else { &mut *map };
                                     let mut new = false;
                                     let id = *m.entry(key(gp)).or_insert_with(|| {
