@@ -48,6 +48,18 @@ fn clip_to_cell(p: DVec3, d: DVec3) -> Option<(f64, f64)> {
     }
 }
 
+/// `g` with the components of the axes set in `fixed` zeroed (bit `a`:
+/// coordinate `a` is held, as for points on a cell face).
+#[inline]
+fn without_fixed(mut g: DVec3, fixed: u8) -> DVec3 {
+    for a in 0..3 {
+        if fixed & (1 << a) != 0 {
+            g[a] = 0.0;
+        }
+    }
+    g
+}
+
 /// Projects `p` (local coordinates of a cell) onto `F = iso` along the
 /// gradient line, restricted to the axes not set in `fixed` (bit `a` set:
 /// the coordinate `a` is held, as for points on a cell face). Returns
@@ -58,12 +70,7 @@ pub fn project<F: ReconstructionFilter>(
     p: DVec3,
     fixed: u8,
 ) -> Option<Projection> {
-    let mut g = F::gradient(cell, p);
-    for a in 0..3 {
-        if fixed & (1 << a) != 0 {
-            g[a] = 0.0;
-        }
-    }
+    let g = without_fixed(F::gradient(cell, p), fixed);
     let len = g.length();
     if !(len > 0.0 && len.is_finite()) {
         return None;
@@ -205,14 +212,7 @@ pub fn test<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
 ) -> Test {
-    let mask = |mut g: DVec3| {
-        for a in 0..3 {
-            if fixed & (1 << a) != 0 {
-                g[a] = 0.0;
-            }
-        }
-        g
-    };
+    let mask = |g: DVec3| without_fixed(g, fixed);
     let (v0, g0) = F::value_gradient(cell, p);
     let g = mask(g0);
     let len2 = g.length_squared();
@@ -371,12 +371,8 @@ pub fn seems_far<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
 ) -> bool {
-    let (v0, mut g) = F::value_gradient(cell, p);
-    for a in 0..3 {
-        if fixed & (1 << a) != 0 {
-            g[a] = 0.0;
-        }
-    }
+    let (v0, g) = F::value_gradient(cell, p);
+    let g = without_fixed(g, fixed);
     let len = g.length();
     let q0 = v0 - iso;
     if !(len > 0.0 && len.is_finite()) || q0 == 0.0 {
