@@ -417,8 +417,9 @@ typedef struct pmc_stats {
      */
     uint64_t split_points;
     /**
-     * Sample points for which no point of the ideal surface was found along
-     * the gradient line inside the cell (not split).
+     * Sample points whose gradient line left the cell without meeting the
+     * ideal surface (interior ones are then decided by the nearest point of
+     * the surface in the cell).
      */
     uint64_t projection_failures;
     /**

@@ -686,12 +686,18 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                 // the same point of a neighbour, is a merge. Without one,
                 // the patch is a subdivision of the Marching Cubes patch
                 // and only its facing needs checking.
-                // Second attempt (only when the first gave an unsound patch):
-                // interior edges and centres stay whole. Edges on the cell's
-                // faces decide as before, so neighbours still match.
-                for attempt in 0..2 {
+                // Attempts, each only when the previous one gave an unsound
+                // patch: first, interior samples whose gradient line leaves
+                // the cell split at the nearest point of S_K inside the cell
+                // (see Refiner::interior_fallback); second, they stay
+                // unsplit; third, interior edges and centres stay whole.
+                // Edges on the cell's faces decide alike in every attempt,
+                // so neighbours still match.
+                const ATTEMPTS: usize = 3;
+                for attempt in 0..ATTEMPTS {
                     cache.clear();
                     let mut merged = false;
+                    let nearest_before = out.counters.nearest_splits;
                     let mut area = DVec3::ZERO;
                     seen.clear();
                     for t in &kept {
@@ -711,7 +717,8 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         counters: &mut out.counters,
                         stack: &mut stack,
                         cache: &mut cache,
-                        refinable: if attempt == 0 {
+                        interior_fallback: attempt == 0,
+                        refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
                             Refinable {
@@ -790,16 +797,20 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                         }
                     }
                     if count_only
-                        || attempt == 1
+                        || attempt == ATTEMPTS - 1
                         || !refinable.interior
                         || if merged {
-                            sound_patch(
-                                cell_f,
-                                &out.tris[t_start..],
-                                &out.verts,
-                                &pos_of,
-                                &mut edges,
-                            )
+                            // A nearest point may weld with another point
+                            // into a vertex where the patch touches itself,
+                            // which the checks below do not see.
+                            out.counters.nearest_splits == nearest_before
+                                && sound_patch(
+                                    cell_f,
+                                    &out.tris[t_start..],
+                                    &out.verts,
+                                    &pos_of,
+                                    &mut edges,
+                                )
                         } else {
                             debug_assert!(
                                 soundly_connected(&out.tris[t_start..], &mut edges),
@@ -819,7 +830,9 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
                     let samples = out.counters.samples;
                     out.counters = before.clone();
                     out.counters.samples = samples;
-                    out.counters.unsound_cells += 1;
+                    if attempt + 2 == ATTEMPTS {
+                        out.counters.unsound_cells += 1;
+                    }
                 }
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than

@@ -15,6 +15,7 @@ use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
 use crate::flat_map::FlatMap;
+use crate::nearest::nearest;
 use crate::options::Rule;
 use crate::project::{seems_far, test, Test};
 
@@ -35,6 +36,15 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// Which cell faces and whether the interior may be refined (see
     /// [`Refinable`]).
     pub refinable: Refinable,
+    /// Whether an interior sample (no fixed axis) whose gradient line
+    /// leaves the cell without meeting `S_K` splits at the nearest point of
+    /// `S_K` in the cell ([`nearest`]) when that lies strictly inside the
+    /// cell. (One on a face would make triangles lying flat in the face,
+    /// where the neighbour's patch may lie too.) Samples on faces never
+    /// do: the two cells sharing a face decide its edges alike only when
+    /// neither decision depends on its own patch, which this fallback is
+    /// retried on.
+    pub interior_fallback: bool,
 }
 
 /// Where a cell may be refined. A sample exactly at the isovalue (or a face
@@ -115,6 +125,9 @@ pub(crate) struct Counters {
     /// Cells whose refined patch was unsound (see [`sound_patch`]) and
     /// were refined again on their faces' edges only.
     pub unsound_cells: u64,
+    /// Split points placed by the nearest-point fallback
+    /// ([`Refiner::interior_fallback`]).
+    pub nearest_splits: u64,
 }
 
 /// A triangle being refined: vertex ids, local positions, fixed-axis mask
@@ -235,8 +248,19 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         self.counters.samples += 1;
         match test::<F>(self.cell, self.iso, p, fixed, self.epsilon) {
             Test::Failed => {
+                // The gradient line left the cell: the nearest point of
+                // `S_K` in the cell (face) decides instead.
                 self.counters.failures += 1;
-                None
+                if fixed != 0 || !self.interior_fallback {
+                    return None;
+                }
+                match nearest::<F>(self.cell, self.iso, p, self.epsilon) {
+                    Test::Far(q) if q.cmpgt(DVec3::ZERO).all() && q.cmplt(DVec3::ONE).all() => {
+                        self.counters.nearest_splits += 1;
+                        Some(q)
+                    }
+                    _ => None,
+                }
             }
             Test::Far(q) => Some(q),
             Test::Near => None,

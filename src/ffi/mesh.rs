@@ -64,8 +64,9 @@ pub struct pmc_stats {
     pub samples_evaluated: u64,
     /// Sample points that were inserted as split points.
     pub split_points: u64,
-    /// Sample points for which no point of the ideal surface was found along
-    /// the gradient line inside the cell (not split).
+    /// Sample points whose gradient line left the cell without meeting the
+    /// ideal surface (interior ones are then decided by the nearest point of
+    /// the surface in the cell).
     pub projection_failures: u64,
     /// Output triangles at the maximum level that still had a sample point
     /// farther than epsilon.

@@ -1,0 +1,315 @@
+//! The fallback of the sample test for interior samples: when the gradient
+//! line through a sample point leaves its cell without meeting `S_K` (thin
+//! tubes and necks, tunnels of ambiguous cells: where the surface bends
+//! within one cell), the point of `S_K` in the cell nearest to the sample
+//! decides instead.
+//!
+//! The search is a branch and bound over boxes. Starting from the cell, the
+//! nearest box whose corner values straddle the isovalue is halved along
+//! each axis, until the nearest such box is farther than epsilon and small
+//! ([`COARSE`]) — the sample is far, and splits at a point of `S_K` found
+//! there — or a point of `S_K` within epsilon turns up. For the trilinear
+//! filter the straddling test is exact (a multilinear function takes its
+//! extremes over a box at the box's corners, so a box that does not
+//! straddle holds no point of `S_K`); for the cubic filters it is a good
+//! heuristic. The point found in the last box (a root on one of its
+//! edges) is then moved to the foot of the sample on `S_K` by a few
+//! Gauss-Newton steps, so that nearby samples do not share it.
+
+use glam::DVec3;
+
+use crate::filter::ReconstructionFilter;
+use crate::project::{solve, Test};
+use crate::tables::cube::{CORNERS, EDGES};
+
+/// Box edge (cell units) at which a box farther than epsilon is taken as
+/// the place to split. Smaller costs more boxes; the Gauss-Newton steps
+/// that follow reach the foot anyway where `S_K` is smooth.
+pub const COARSE: f64 = 1.0 / 32.0;
+
+/// Boxes examined at most per search (a safeguard; a few dozen are
+/// usual).
+const MAX_BOXES: usize = 4096;
+
+/// A box of the search: lowest corner, edge length, the filter minus the
+/// isovalue at its corners (VTK order, [`CORNERS`]), distance from the
+/// sample.
+#[derive(Clone, Copy)]
+struct Cube {
+    lo: DVec3,
+    size: f64,
+    f: [f64; 8],
+    lower: f64,
+}
+
+impl Cube {
+    fn corner(&self, k: usize) -> DVec3 {
+        let c = CORNERS[k];
+        self.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * self.size
+    }
+}
+
+fn straddles(f: &[f64; 8]) -> bool {
+    f.iter().any(|&v| v <= 0.0) && f.iter().any(|&v| v >= 0.0)
+}
+
+/// Decides the interior sample `p` (local coordinates of the cell) by the
+/// nearest point of `S_K` in the cell: [`Test::Near`] when one lies within
+/// `epsilon`, [`Test::Far`] with a point of `S_K` near the nearest one
+/// otherwise, [`Test::Failed`] when the cell holds no point of `S_K` (by
+/// the straddling test) or the search gives up. A pure function of its
+/// arguments.
+pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsilon: f64) -> Test {
+    let f = |x: DVec3| F::value(cell, x) - iso;
+    let mut root = Cube {
+        lo: DVec3::ZERO,
+        size: 1.0,
+        f: [0.0; 8],
+        lower: 0.0,
+    };
+    for k in 0..8 {
+        root.f[k] = f(root.corner(k));
+    }
+    if root.f.iter().any(|v| !v.is_finite()) || !straddles(&root.f) {
+        return Test::Failed;
+    }
+    let mut open = vec![root];
+    for _ in 0..MAX_BOXES {
+        // The nearest open box; ties broken by position (a total order, so
+        // the result does not depend on the order of `open`).
+        let Some(at) = (0..open.len()).min_by(|&x, &y| {
+            let (b, c) = (&open[x], &open[y]);
+            b.lower
+                .total_cmp(&c.lower)
+                .then(c.size.total_cmp(&b.size))
+                .then(b.lo.x.total_cmp(&c.lo.x))
+                .then(b.lo.y.total_cmp(&c.lo.y))
+                .then(b.lo.z.total_cmp(&c.lo.z))
+        }) else {
+            break;
+        };
+        let b = open.swap_remove(at);
+        if b.lower > epsilon {
+            if b.size <= COARSE {
+                return match edge_root(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q)) {
+                    Some(x) => Test::Far(x),
+                    None => Test::Failed,
+                };
+            }
+        } else if let Some(q) = edge_root(&f, &b, p) {
+            let d = (q - p).length();
+            if d <= epsilon {
+                return Test::Near;
+            }
+            // Too small to tell apart from epsilon: far, but barely.
+            if b.size <= epsilon * 0.125 {
+                return match polish::<F>(cell, iso, p, q) {
+                    Some(x) => Test::Far(x),
+                    None => Test::Failed,
+                };
+            }
+        }
+        // Halve along each axis: a 3x3x3 grid of values, of which the
+        // eight corners are known.
+        let half = b.size * 0.5;
+        let mut grid = [0.0f64; 27];
+        for g in 0..27 {
+            let digits = [g % 3, g / 3 % 3, g / 9];
+            grid[g] =
+                match digits.iter().position(|&d| d == 1) {
+                    Some(_) => f(b.lo
+                        + DVec3::new(digits[0] as f64, digits[1] as f64, digits[2] as f64) * half),
+                    None => {
+                        let k = CORNERS
+                            .iter()
+                            .position(|c| (0..3).all(|a| c[a] as usize * 2 == digits[a]))
+                            .unwrap();
+                        b.f[k]
+                    }
+                };
+        }
+        for child in 0..8 {
+            let o = CORNERS[child];
+            let lo = b.lo + DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * half;
+            let mut c = Cube {
+                lo,
+                size: half,
+                f: [0.0; 8],
+                lower: (lo - p)
+                    .max(p - (lo + DVec3::splat(half)))
+                    .max(DVec3::ZERO)
+                    .length(),
+            };
+            for k in 0..8 {
+                let d = CORNERS[k];
+                let at = |a: usize| (o[a] + d[a]) as usize;
+                c.f[k] = grid[at(0) + 3 * at(1) + 9 * at(2)];
+            }
+            if straddles(&c.f) {
+                open.push(c);
+            }
+        }
+    }
+    Test::Failed
+}
+
+/// Moves `q`, a point of `S_K` found by the search, to the foot of `p` on
+/// `S_K` nearby: repeatedly the point nearest to `p` of the plane where the
+/// filter's linearisation at the current point is zero (Gauss-Newton on
+/// the distance; it converges fast where `S_K` is smooth). `None` when the
+/// iteration leaves the cell, does not settle on `S_K`, or ends farther
+/// from `p` than `q`: the box's edge root itself is no split point, since
+/// nearby samples whose searches stop in the same box would share it (and
+/// weld), and its place on a box edge can line it up exactly with other
+/// points.
+fn polish<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, q: DVec3) -> Option<DVec3> {
+    let mut x = q;
+    for _ in 0..24 {
+        let (v, g) = F::value_gradient(cell, x);
+        let len2 = g.length_squared();
+        if !(len2 > 0.0 && len2.is_finite()) {
+            return None;
+        }
+        // Half steps: where the distance is near S_K's radius of
+        // curvature, full steps oscillate about the foot (and diverge
+        // beyond it); half steps damp that for any ratio below 3.
+        let mut y = (x + p - g * ((v - iso + g.dot(p - x)) / len2)) * 0.5;
+        // A step out of the cell is shortened (the foot may lie inside
+        // though a full step overshoots); one that stays out gives up.
+        for _ in 0..4 {
+            if y.cmpge(DVec3::ZERO).all() && y.cmple(DVec3::ONE).all() {
+                break;
+            }
+            y = (x + y) * 0.5;
+        }
+        if !(y.cmpge(DVec3::ZERO).all() && y.cmple(DVec3::ONE).all()) {
+            return None;
+        }
+        let step = (y - x).length();
+        x = y;
+        if step <= 1e-14 {
+            break;
+        }
+    }
+    // Where S_K curves strongly (radius near the distance) the iteration
+    // converges slowly along S_K; the point need not be the exact foot, but
+    // it must lie on S_K: Newton steps along the gradient finish.
+    for _ in 0..4 {
+        let (v, g) = F::value_gradient(cell, x);
+        let len2 = g.length_squared();
+        if (v - iso).abs() <= 1e-12 * len2.sqrt() {
+            let inside = x.cmpge(DVec3::ZERO).all() && x.cmple(DVec3::ONE).all();
+            return (inside && (x - p).length() <= (q - p).length() + COARSE).then_some(x);
+        }
+        if !(len2 > 0.0 && len2.is_finite()) {
+            return None;
+        }
+        x -= g * ((v - iso) / len2);
+    }
+    None
+}
+
+/// The root of `f` nearest to `p` on the edges of box `b` whose ends
+/// differ in sign (or are zero).
+fn edge_root(f: &impl Fn(DVec3) -> f64, b: &Cube, p: DVec3) -> Option<DVec3> {
+    let mut best: Option<(f64, DVec3)> = None;
+    for [i, j] in EDGES.map(|e| e.map(usize::from)) {
+        let (fa, fb) = (b.f[i], b.f[j]);
+        if (fa > 0.0 && fb > 0.0) || (fa < 0.0 && fb < 0.0) {
+            continue;
+        }
+        let (start, end) = (b.corner(i), b.corner(j));
+        let t = solve(&|t: f64| f(start + (end - start) * t), 0.0, fa, 1.0, fb);
+        let q = start + (end - start) * t;
+        let d = (q - p).length_squared();
+        if best.map_or(true, |(bd, _)| d < bd) {
+            best = Some((d, q));
+        }
+    }
+    best.map(|(_, q)| q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::{trilinear_value, Trilinear};
+
+    type Tri = Trilinear<'static, f64>;
+
+    /// Distance from `p` to `S_K` of the cell `c` (isovalue 0) and the
+    /// point, from a dense grid of z-segments (within about 1/n).
+    fn dense_nearest(c: &[f64; 8], p: DVec3, n: usize) -> (f64, DVec3) {
+        let mut best = (f64::INFINITY, DVec3::ZERO);
+        for i in 0..=n {
+            for j in 0..=n {
+                for k in 0..n {
+                    let a = DVec3::new(i as f64, j as f64, k as f64) / n as f64;
+                    let b = a + DVec3::new(0.0, 0.0, 1.0 / n as f64);
+                    let (fa, fb) = (trilinear_value(c, a), trilinear_value(c, b));
+                    if (fa > 0.0) != (fb > 0.0) {
+                        let q = a + (b - a) * (fa / (fa - fb));
+                        if (q - p).length() < best.0 {
+                            best = ((q - p).length(), q);
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn agrees_with_a_dense_search_on_random_cells() {
+        // Random cells and samples: a far answer lies on S_K, inside the
+        // cell, not much farther than the nearest point of S_K; a near
+        // answer has S_K within epsilon (up to the dense search's
+        // resolution). Some samples whose gradient line misses S_K must be
+        // rescued (the point of the fallback).
+        let mut x = 12345u64;
+        let mut rnd = move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut near, mut far, mut failed, mut rescued) = (0, 0, 0, 0);
+        for _ in 0..600 {
+            let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
+            let p = DVec3::new(rnd(), rnd(), rnd());
+            let eps = [0.001, 0.05][(rnd() * 2.0) as usize];
+            let n = 48;
+            let (best, foot) = dense_nearest(&c, p, n);
+            let line = crate::project::project::<Tri>(&c, 0.0, p, 0);
+            match nearest::<Tri>(&c, 0.0, p, eps) {
+                Test::Far(q) => {
+                    far += 1;
+                    rescued += line.is_none() as u32;
+                    assert!(trilinear_value(&c, q).abs() < 1e-9);
+                    assert!(q.cmpge(DVec3::ZERO).all() && q.cmple(DVec3::ONE).all());
+                    let d = (q - p).length();
+                    assert!(d > eps, "{d} <= {eps}");
+                    assert!(d <= best + COARSE * 3f64.sqrt(), "{d} vs {best}");
+                    assert!(best + 1.0 / n as f64 >= eps, "{best} vs eps {eps}");
+                }
+                Test::Near => {
+                    near += 1;
+                    assert!(best <= eps + 2.0 / n as f64, "{best} vs eps {eps}");
+                }
+                Test::Failed => {
+                    // No S_K in the cell, or its nearest point is on the
+                    // cell's boundary (the foot of `p` lies outside).
+                    failed += 1;
+                    let edge = foot.min_element().min(1.0 - foot.max_element());
+                    assert!(
+                        best.is_infinite() || edge < 0.1,
+                        "failed at {foot}, {best} from p"
+                    );
+                }
+            }
+        }
+        assert!(
+            near > 20 && far > 300 && rescued > 5,
+            "{near} near, {far} far, {failed} failed, {rescued} rescued"
+        );
+    }
+}
