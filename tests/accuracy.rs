@@ -317,7 +317,11 @@ fn thin_features_refine_where_gradient_lines_miss() {
             ..Options::default()
         };
         let mesh = extract(&vol, s.isovalue, &opts).unwrap();
-        assert!(mesh.stats.projection_failures > 0, "{}: nothing to rescue", s.name);
+        assert!(
+            mesh.stats.projection_failures > 0,
+            "{}: nothing to rescue",
+            s.name
+        );
         let m = accuracy::measure(
             &vol,
             s.isovalue,
