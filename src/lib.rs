@@ -54,6 +54,7 @@ pub mod tables;
 mod assemble;
 mod extract;
 mod flat_map;
+mod layers;
 mod nearest;
 mod normals;
 mod refine;

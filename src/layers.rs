@@ -1,0 +1,165 @@
+//! Per-worker scratch of the Marching Cubes pass over a slab: the inside
+//! bits of two sample layers and the ids of the points on their grid edges.
+//!
+//! The edge caches take about 40 bytes per sample of a layer (2.6 MB for a
+//! 256 x 256 layer). Allocating, clearing and faulting them in again for
+//! every slab cost more than Marching Cubes itself on small volumes, so a
+//! [`ScratchPool`] hands the same buffers from slab to slab. Cache entries
+//! carry a stamp that is unique to one sample layer (or cell layer, for the
+//! z edges) of one slab, so nothing needs clearing between slabs and an
+//! entry left by an earlier slab never matches.
+
+use std::sync::Mutex;
+
+/// An empty cache entry (its stamp, `u32::MAX`, is never handed out).
+pub(crate) const EMPTY: u64 = u64::MAX;
+
+/// A cache entry: the point `id` placed on a grid edge of the layer
+/// stamped `stamp`.
+#[inline(always)]
+pub(crate) fn entry(stamp: u32, id: u32) -> u64 {
+    (stamp as u64) << 32 | id as u64
+}
+
+/// The id in `entry` if it was placed under `stamp`.
+#[inline(always)]
+pub(crate) fn lookup(entry: u64, stamp: u32) -> Option<u32> {
+    (entry >> 32 == stamp as u64).then_some(entry as u32)
+}
+
+/// Scratch buffers for one slab worker, sized for cell layers of
+/// `nx` x `ny` cells.
+pub(crate) struct LayerScratch {
+    /// Inside bits of the two sample layers of the current cell layer (by
+    /// z parity), `(nx + 1) * (ny + 1)` each.
+    pub insides: [Vec<u8>; 2],
+    /// Whether each sample row of those layers is all finite.
+    pub finite: [Vec<bool>; 2],
+    /// Ids on the x edges of the two sample layers (by z parity).
+    pub edge_x: [Vec<u64>; 2],
+    /// Ids on the y edges of the two sample layers (by z parity).
+    pub edge_y: [Vec<u64>; 2],
+    /// Ids on the z edges of the current cell layer.
+    pub edge_z: Vec<u64>,
+    /// Case indices of one row of cells.
+    pub cases: Vec<u8>,
+    /// The first stamp not handed out yet.
+    next_stamp: u32,
+}
+
+impl LayerScratch {
+    /// Buffers for layers of `nx` x `ny` cells, or the bytes that could
+    /// not be allocated.
+    fn new(nx: usize, ny: usize) -> Result<Self, usize> {
+        let nxs = nx + 1;
+        let layer = (ny + 1) * nxs;
+        let (x_edges, y_edges, z_edges) = (nx * (ny + 1), nxs * ny, nxs * (ny + 1));
+        let bytes = 2 * layer + 8 * (2 * x_edges + 2 * y_edges + z_edges);
+        let s = (|| {
+            Some(LayerScratch {
+                insides: [filled(layer, 0)?, filled(layer, 0)?],
+                finite: [filled(ny + 1, true)?, filled(ny + 1, true)?],
+                edge_x: [filled(x_edges, EMPTY)?, filled(x_edges, EMPTY)?],
+                edge_y: [filled(y_edges, EMPTY)?, filled(y_edges, EMPTY)?],
+                edge_z: filled(z_edges, EMPTY)?,
+                cases: filled(nx, 0)?,
+                next_stamp: 0,
+            })
+        })();
+        s.ok_or(bytes)
+    }
+
+    /// Reserves `n` consecutive stamps (`n < u32::MAX`) and returns the
+    /// first; the caches are cleared when the stamps run out.
+    pub fn stamps(&mut self, n: usize) -> u32 {
+        debug_assert!((n as u64) < u32::MAX as u64);
+        if self.next_stamp as u64 + n as u64 >= u32::MAX as u64 {
+            for v in self
+                .edge_x
+                .iter_mut()
+                .chain(self.edge_y.iter_mut())
+                .chain(std::iter::once(&mut self.edge_z))
+            {
+                v.fill(EMPTY);
+            }
+            self.next_stamp = 0;
+        }
+        let first = self.next_stamp;
+        self.next_stamp += n as u32;
+        first
+    }
+}
+
+/// The scratch buffers of one extraction's workers: at most one set per
+/// worker running at a time is ever allocated.
+pub(crate) struct ScratchPool {
+    nx: usize,
+    ny: usize,
+    free: Mutex<Vec<LayerScratch>>,
+}
+
+impl ScratchPool {
+    /// A pool for cell layers of `nx` x `ny` cells.
+    pub fn new(nx: usize, ny: usize) -> Self {
+        ScratchPool {
+            nx,
+            ny,
+            free: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A set of buffers (reused when one is free), or the bytes that could
+    /// not be allocated.
+    pub fn take(&self) -> Result<LayerScratch, usize> {
+        let reused = self.free.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        match reused {
+            Some(s) => Ok(s),
+            None => LayerScratch::new(self.nx, self.ny),
+        }
+    }
+
+    /// Returns buffers to the pool.
+    pub fn give(&self, s: LayerScratch) {
+        self.free.lock().unwrap_or_else(|e| e.into_inner()).push(s);
+    }
+}
+
+/// A vector of `n` copies of `value`, or `None` when the allocation fails.
+fn filled<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).ok()?;
+    v.resize(n, value);
+    Some(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entries_match_only_their_stamp() {
+        let e = entry(7, 42);
+        assert_eq!(lookup(e, 7), Some(42));
+        assert_eq!(lookup(e, 8), None);
+        assert_eq!(lookup(EMPTY, 0), None);
+        assert_eq!(lookup(EMPTY, u32::MAX - 1), None);
+    }
+
+    #[test]
+    fn stamps_are_fresh_until_they_run_out_then_caches_clear() {
+        let pool = ScratchPool::new(3, 2);
+        let mut s = pool.take().unwrap();
+        assert_eq!(s.stamps(5), 0);
+        assert_eq!(s.stamps(4), 5);
+        s.edge_x[0][1] = entry(6, 3);
+        pool.give(s);
+        // The pool hands the same buffers back, entries and stamps kept.
+        let mut s = pool.take().unwrap();
+        assert_eq!(lookup(s.edge_x[0][1], 6), Some(3));
+        s.next_stamp = u32::MAX - 3;
+        // Not enough stamps left: everything is cleared and they restart.
+        assert_eq!(s.stamps(3), 0);
+        assert!(s.edge_x[0].iter().all(|&e| e == EMPTY));
+        assert_eq!(s.stamps(1), 3);
+    }
+}
