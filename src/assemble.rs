@@ -23,7 +23,7 @@ use crate::Error;
 /// statistics they carry; splits `passes_wall` (seconds) into the Marching
 /// Cubes and refinement times. Runs on the current rayon pool.
 pub(crate) fn assemble(
-    outs: Vec<SlabOut>,
+    mut outs: Vec<SlabOut>,
     volume: &Volume<'_>,
     passes_wall: f64,
     stats: &mut Stats,
@@ -32,16 +32,19 @@ pub(crate) fn assemble(
     let n = outs.len();
 
     // Each slab's lowest and highest point plane (z in index space).
-    let planes: Vec<(f64, f64)> = outs
-        .par_iter()
-        .map(|o| {
-            o.verts
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(v.z), hi.max(v.z))
-                })
-        })
-        .collect();
+    let planes: Vec<(f64, f64)> = if n == 1 {
+        Vec::new()
+    } else {
+        outs.par_iter()
+            .map(|o| {
+                o.verts
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(v.z), hi.max(v.z))
+                    })
+            })
+            .collect()
+    };
     // Points of a slab's bottom plane that the slab before holds on its
     // top plane: (id here, id there), in increasing id here.
     let links: Vec<Vec<(u32, u32)>> = (0..n)
@@ -67,86 +70,108 @@ pub(crate) fn assemble(
         })
         .collect();
 
-    // New points: numbered slab after slab, written in parallel.
+    // New points: numbered slab after slab, written in parallel. A slab
+    // with no point on the plane below keeps its own numbering shifted by
+    // its start, and needs no table.
     let fresh: Vec<usize> = (0..n)
         .map(|s| outs[s].verts.len() - links[s].len())
         .collect();
-    let mut index_points = zeroed::<[f64; 3]>(fresh.iter().sum())?;
     let starts = offsets(&fresh);
-    let mut remaps: Vec<Vec<u64>> = outs
-        .par_iter()
-        .zip(&links)
-        .zip(split_mut(&mut index_points, &fresh))
-        .zip(&starts)
-        .map(|(((o, link), out), &start)| {
-            let mut remap = Vec::with_capacity(o.verts.len());
-            let (mut l, mut w) = (0, 0);
-            for (i, v) in o.verts.iter().enumerate() {
-                if l < link.len() && link[l].0 as usize == i {
-                    // Filled in below, once the slab before is numbered.
-                    remap.push(u64::MAX);
-                    l += 1;
-                } else {
-                    out[w] = v.to_array();
-                    remap.push((start + w) as u64);
-                    w += 1;
+    // (One slab: its points are taken over in place, below.)
+    let mut index_points = if n == 1 {
+        Vec::new()
+    } else {
+        zeroed::<[f64; 3]>(fresh.iter().sum())?
+    };
+    let mut remaps: Vec<Vec<u64>> = if n == 1 {
+        vec![Vec::new()]
+    } else {
+        outs.par_iter()
+            .zip(&links)
+            .zip(split_mut(&mut index_points, &fresh))
+            .zip(&starts)
+            .map(|(((o, link), out), &start)| {
+                if link.is_empty() {
+                    for (w, v) in out.iter_mut().zip(&o.verts) {
+                        *w = v.to_array();
+                    }
+                    return Vec::new();
                 }
-            }
-            remap
-        })
-        .collect();
+                let mut remap = Vec::with_capacity(o.verts.len());
+                let (mut l, mut w) = (0, 0);
+                for (i, v) in o.verts.iter().enumerate() {
+                    if l < link.len() && link[l].0 as usize == i {
+                        // Filled in below, once the slab before is numbered.
+                        remap.push(u64::MAX);
+                        l += 1;
+                    } else {
+                        out[w] = v.to_array();
+                        remap.push((start + w) as u64);
+                        w += 1;
+                    }
+                }
+                remap
+            })
+            .collect()
+    };
     for s in 1..n {
         let (done, rest) = remaps.split_at_mut(s);
         for &(i, j) in &links[s] {
-            rest[0][i as usize] = done[s - 1][j as usize];
+            rest[0][i as usize] = global(&done[s - 1], starts[s - 1], j);
         }
     }
 
-    // Triangles: welding can give a triangle a repeated point. Extreme
-    // sample values can round an edge point onto a grid point that another
-    // point of the triangle already is (e.g. an edge from -8 to 1e308
-    // crossed at 1): such a triangle has no area and its edges cancel in
-    // pairs, so it is dropped without opening the surface.
-    let welded = |t: &[u32; 3], remap: &[u64]| {
-        let g = t.map(|v| remap[v as usize]);
-        (g[0] != g[1] && g[1] != g[2] && g[0] != g[2]).then_some(g)
+    // Triangles. Welding could give a triangle a repeated point (it does
+    // not: points are welded within a slab before their triangles are
+    // emitted, and across slabs only onto distinct points; but such a
+    // triangle would have no area and its edges would cancel in pairs, so
+    // it is dropped below without opening the surface).
+    let counts: Vec<usize> = outs.iter().map(|o| o.tris.len()).collect();
+    let mut triangles = zeroed::<[u64; 3]>(counts.iter().sum())?;
+    let mut levels = if n == 1 {
+        std::mem::take(&mut outs[0].levels)
+    } else {
+        zeroed::<u8>(triangles.len())?
     };
-    let kept: Vec<usize> = outs
+    let tri_starts = offsets(&counts);
+    let found: Vec<(Vec<Candidate>, Vec<usize>)> = outs
         .par_iter()
         .zip(&remaps)
-        .map(|(o, r)| o.tris.iter().filter(|t| welded(t, r).is_some()).count())
-        .collect();
-    let mut triangles = zeroed::<[u64; 3]>(kept.iter().sum())?;
-    let mut levels = zeroed::<u8>(triangles.len())?;
-    let starts = offsets(&kept);
-    let candidates: Vec<Vec<Candidate>> = outs
-        .par_iter()
-        .zip(&remaps)
-        .zip(split_mut(&mut triangles, &kept))
-        .zip(split_mut(&mut levels, &kept))
         .zip(&starts)
-        .map(|((((o, r), tri_out), level_out), &start)| {
-            let mut cand = Vec::new();
-            let mut w = 0;
-            for (t, &l) in o.tris.iter().zip(&o.levels) {
-                let Some(g) = welded(t, r) else { continue };
-                if in_grid_plane(t.map(|v| o.verts[v as usize])) {
-                    cand.push(Candidate::new(start + w, g));
+        .zip(split_mut(&mut triangles, &counts))
+        .zip(split_mut(&mut levels, &counts))
+        .zip(&tri_starts)
+        .map(|(((((o, r), &start), tri_out), level_out), &t0)| {
+            let (mut cand, mut degenerate) = (Vec::new(), Vec::new());
+            for (w, t) in o.tris.iter().enumerate() {
+                let g = t.map(|v| global(r, start, v));
+                if g[0] == g[1] || g[1] == g[2] || g[0] == g[2] {
+                    degenerate.push(t0 + w);
+                } else if in_grid_plane(t.map(|v| o.verts[v as usize])) {
+                    cand.push(Candidate::new(t0 + w, g));
                 }
                 tri_out[w] = g;
-                level_out[w] = l;
-                w += 1;
             }
-            cand
+            if n > 1 {
+                level_out.copy_from_slice(&o.levels);
+            }
+            (cand, degenerate)
         })
         .collect();
     drop(remaps);
+    if n == 1 {
+        let verts = std::mem::take(&mut outs[0].verts);
+        index_points = verts.into_iter().map(|v| v.to_array()).collect();
+        index_points.shrink_to_fit();
+    }
     drop(outs);
-    remove_duplicate_triangles(
-        candidates.into_iter().flatten().collect(),
-        &mut triangles,
-        &mut levels,
-    );
+    let mut candidates = Vec::new();
+    let mut degenerate = Vec::new();
+    for (c, d) in found {
+        candidates.extend(c);
+        degenerate.extend(d);
+    }
+    remove_duplicate_triangles(candidates, degenerate, &mut triangles, &mut levels);
 
     // World coordinates.
     let mut points = Vec::new();
@@ -246,14 +271,15 @@ impl Candidate {
 /// triangle, flat in a shared face: a pair of opposite orientation bounds
 /// nothing and is removed, a repeated one is kept once. Triangles of two
 /// cells can coincide only in the grid plane between them, so only the
-/// `cand`idates lying in a grid plane are compared.
+/// `cand`idates lying in a grid plane are compared. The triangles at the
+/// indices in `drop` go too.
 fn remove_duplicate_triangles(
     mut cand: Vec<Candidate>,
+    mut drop: Vec<usize>,
     triangles: &mut Vec<[u64; 3]>,
     levels: &mut Vec<u8>,
 ) {
     cand.sort_by(|a, b| a.sorted.cmp(&b.sorted).then(a.index.cmp(&b.index)));
-    let mut drop = Vec::new();
     let mut i = 0;
     while i < cand.len() {
         let mut j = i + 1;
@@ -299,6 +325,17 @@ fn remove_duplicate_triangles(
     }
     triangles.truncate(w);
     levels.truncate(w);
+}
+
+/// The output id of a slab's point `v`: from the slab's table, or, when it
+/// has none, the slab's `start` plus `v`.
+#[inline(always)]
+fn global(remap: &[u64], start: usize, v: u32) -> u64 {
+    if remap.is_empty() {
+        (start + v as usize) as u64
+    } else {
+        remap[v as usize]
+    }
 }
 
 /// Start of each part when parts of the given lengths are laid end to end.
