@@ -142,16 +142,21 @@ pub(crate) fn assemble(
         .zip(split_mut(&mut levels, &counts))
         .zip(&tri_starts)
         .map(|(((((o, r), &start), tri_out), level_out), &t0)| {
-            let (mut cand, mut degenerate) = (Vec::new(), Vec::new());
+            let mut degenerate = Vec::new();
             for (w, t) in o.tris.iter().enumerate() {
                 let g = t.map(|v| global(r, start, v));
                 if g[0] == g[1] || g[1] == g[2] || g[0] == g[2] {
                     degenerate.push(t0 + w);
-                } else if in_grid_plane(t.map(|v| o.verts[v as usize])) {
-                    cand.push(Candidate::new(t0 + w, g));
                 }
                 tri_out[w] = g;
             }
+            let cand = o
+                .flat_tris
+                .iter()
+                .map(|&w| (t0 + w as usize, tri_out[w as usize]))
+                .filter(|&(i, _)| degenerate.binary_search(&i).is_err())
+                .map(|(i, g)| Candidate::new(i, g))
+                .collect::<Vec<_>>();
             if n > 1 {
                 level_out.copy_from_slice(&o.levels);
             }
@@ -236,7 +241,8 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
 }
 
 /// Whether a triangle (index coordinates) lies in a grid plane.
-fn in_grid_plane(p: [DVec3; 3]) -> bool {
+#[inline(always)]
+pub(crate) fn in_grid_plane(p: [DVec3; 3]) -> bool {
     // The cheap comparisons first: few triangles lie in any axis plane.
     (0..3).any(|a| p[1][a] == p[0][a] && p[2][a] == p[0][a] && p[0][a].fract() == 0.0)
 }

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::assemble::assemble;
+use crate::assemble::{assemble, in_grid_plane};
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
@@ -169,6 +169,10 @@ pub(crate) struct SlabOut {
     pub counters: Counters,
     pub refine_time: Duration,
     pub total_time: Duration,
+    /// Indices in `tris` of the triangles lying in a grid plane, the only
+    /// ones that can coincide with another cell's (found while their points
+    /// are still in cache).
+    pub flat_tris: Vec<u32>,
     /// Set when a pass without `weld_all` met an interior point off its
     /// cell's interior (see [`process_slab`]); the output is then discarded.
     pub redo_with_map: bool,
@@ -342,16 +346,17 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
                 scratch: &scratch,
             };
             let (tx, rx) = std::sync::mpsc::channel();
-            let outs = std::thread::scope(|scope| {
+            // The work goes to the pool while this thread reports progress
+            // (no thread of its own: starting one costs more than
+            // contouring a small volume).
+            let outs = pool.in_place_scope(|scope| {
                 let shared = &shared;
                 let slabs = &slabs;
-                scope.spawn(move || {
-                    let r: Vec<SlabOut> = pool.install(|| {
-                        slabs
-                            .par_iter()
-                            .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
-                            .collect()
-                    });
+                scope.spawn(move |_| {
+                    let r: Vec<SlabOut> = slabs
+                        .par_iter()
+                        .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
+                        .collect();
                     let _ = tx.send(r);
                 });
                 loop {
@@ -739,6 +744,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                 out.mc_tris += kept.len() as u64;
                 if !sh.refine {
                     for t in &kept {
+                        mark_flat(&mut out, *t);
                         out.tris.push(*t);
                         out.levels.push(0);
                     }
@@ -924,6 +930,13 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                         out.counters.unsound_cells += 1;
                     }
                 }
+                if !count_only {
+                    for n in t_start..out.tris.len() {
+                        if in_grid_plane(out.tris[n].map(|v| out.verts[v as usize])) {
+                            out.flat_tris.push(n as u32);
+                        }
+                    }
+                }
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than
                 // the cap: check after every cell that emitted many.
@@ -945,6 +958,14 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
     out.reported = reported;
     out.total_time = t0.elapsed();
     out
+}
+
+/// Notes `t`, about to be appended to `out.tris`, if it lies in a grid plane.
+#[inline(always)]
+fn mark_flat(out: &mut SlabOut, t: [u32; 3]) {
+    if in_grid_plane(t.map(|v| out.verts[v as usize])) {
+        out.flat_tris.push(out.tris.len() as u32);
+    }
 }
 
 /// Case indices of a row of cells from the inside bits of its four sample
