@@ -49,6 +49,37 @@ impl Cube {
     }
 }
 
+/// For each point `g` of a box's 3x3x3 halving grid (digits `g % 3`,
+/// `g / 3 % 3`, `g / 9` in half edges), the box corner it is, if any.
+const GRID_CORNER: [Option<u8>; 27] = {
+    let mut t = [None; 27];
+    let mut k = 0;
+    while k < 8 {
+        let c = CORNERS[k];
+        t[2 * c[0] as usize + 6 * c[1] as usize + 18 * c[2] as usize] = Some(k as u8);
+        k += 1;
+    }
+    t
+};
+
+/// For each child box (by its corner of the parent) and each of its
+/// corners, the point of the parent's halving grid it is.
+const CHILD_GRID: [[u8; 8]; 8] = {
+    let mut t = [[0u8; 8]; 8];
+    let mut child = 0;
+    while child < 8 {
+        let o = CORNERS[child];
+        let mut k = 0;
+        while k < 8 {
+            let d = CORNERS[k];
+            t[child][k] = (o[0] + d[0]) + 3 * (o[1] + d[1]) + 9 * (o[2] + d[2]);
+            k += 1;
+        }
+        child += 1;
+    }
+    t
+};
+
 fn straddles(f: &[f64; 8]) -> bool {
     f.iter().any(|&v| v <= 0.0) && f.iter().any(|&v| v >= 0.0)
 }
@@ -113,22 +144,16 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
         // eight corners are known.
         let half = b.size * 0.5;
         let mut grid = [0.0f64; 27];
-        for g in 0..27 {
-            let digits = [g % 3, g / 3 % 3, g / 9];
-            grid[g] =
-                match digits.iter().position(|&d| d == 1) {
-                    Some(_) => f(b.lo
-                        + DVec3::new(digits[0] as f64, digits[1] as f64, digits[2] as f64) * half),
-                    None => {
-                        let k = CORNERS
-                            .iter()
-                            .position(|c| (0..3).all(|a| c[a] as usize * 2 == digits[a]))
-                            .unwrap();
-                        b.f[k]
-                    }
-                };
+        for (g, value) in grid.iter_mut().enumerate() {
+            *value = match GRID_CORNER[g] {
+                Some(k) => b.f[k as usize],
+                None => {
+                    let d = [g % 3, g / 3 % 3, g / 9];
+                    f(b.lo + DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64) * half)
+                }
+            };
         }
-        for child in 0..8 {
+        for (child, at) in CHILD_GRID.iter().enumerate() {
             let o = CORNERS[child];
             let lo = b.lo + DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * half;
             let mut c = Cube {
@@ -141,9 +166,7 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
                     .length(),
             };
             for k in 0..8 {
-                let d = CORNERS[k];
-                let at = |a: usize| (o[a] + d[a]) as usize;
-                c.f[k] = grid[at(0) + 3 * at(1) + 9 * at(2)];
+                c.f[k] = grid[at[k] as usize];
             }
             if straddles(&c.f) {
                 open.push(c);
