@@ -144,11 +144,22 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
         let mut normal = [0.0; 3];
         normal[*axis as usize] = if *val == 0 { -1.0 } else { 1.0 };
         let fe = FACE_EDGES[k];
-        let crossed: Vec<usize> = (0..4)
-            .filter(|&i| inside(c[i]) != inside(c[(i + 1) % 4]))
-            .collect();
-        let mut segments: Vec<(u8, u8, [f64; 3])> = Vec::with_capacity(2);
-        match crossed.len() {
+        // (Fixed arrays: this runs for every ambiguous cell.)
+        let mut crossed = [0usize; 4];
+        let mut n_crossed = 0;
+        for i in 0..4 {
+            if inside(c[i]) != inside(c[(i + 1) % 4]) {
+                crossed[n_crossed] = i;
+                n_crossed += 1;
+            }
+        }
+        let mut segments = [(0u8, 0u8, [0.0f64; 3]); 4];
+        let mut n_segments = 0;
+        let mut push = |seg: (u8, u8, [f64; 3])| {
+            segments[n_segments] = seg;
+            n_segments += 1;
+        };
+        match n_crossed {
             2 => {
                 let mut r = [0.0; 3];
                 let mut n = 0.0;
@@ -164,7 +175,7 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
                 for v in &mut r {
                     *v /= n;
                 }
-                segments.push((fe[crossed[0]], fe[crossed[1]], r));
+                push((fe[crossed[0]], fe[crossed[1]], r));
             }
             4 => {
                 let join_in = decisions[k].unwrap_or(true);
@@ -186,13 +197,13 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
                             let p = CORNERS[c[i] as usize];
                             [p[0] as f64, p[1] as f64, p[2] as f64]
                         };
-                        segments.push((ea, eb, r));
+                        push((ea, eb, r));
                     }
                 }
             }
             _ => {}
         }
-        for (ea, eb, r) in segments {
+        for &(ea, eb, r) in &segments[..n_segments] {
             let (ma, mb) = (edge_midpoint(ea), edge_midpoint(eb));
             let cr = cross(sub(mb, ma), sub(r, ma));
             let d = normal[0] * cr[0] + normal[1] * cr[1] + normal[2] * cr[2];
@@ -246,20 +257,27 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
     // Sweep z: slice corner j (cyclic 0..4) runs from corner j to j + 4.
     let a = [f[0], f[1], f[2], f[3]];
     let b = [f[4] - f[0], f[5] - f[1], f[6] - f[2], f[7] - f[3]];
-    let mut events: Vec<f64> = vec![0.0, 1.0];
+    // At most 0, 1, four edge crossings and two saddle heights.
+    let mut buf = [0.0f64; 8];
+    buf[1] = 1.0;
+    let mut n_events = 2;
     for j in 0..4 {
         if (f[j] >= 0.0) != (f[j + 4] >= 0.0) {
-            events.push(f[j] / (f[j] - f[j + 4]));
+            buf[n_events] = f[j] / (f[j] - f[j + 4]);
+            n_events += 1;
         }
     }
     let qa = b[0] * b[2] - b[1] * b[3];
     let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
     let qc = a[0] * a[2] - a[1] * a[3];
-    for r in quadratic_roots(qa, qb, qc) {
+    let (roots, n_roots) = quadratic_roots(qa, qb, qc);
+    for &r in &roots[..n_roots] {
         if r > 0.0 && r < 1.0 {
-            events.push(r);
+            buf[n_events] = r;
+            n_events += 1;
         }
     }
+    let events = &mut buf[..n_events];
     events.sort_by(|x, y| x.total_cmp(y));
     for w in events.windows(2) {
         if w[1] <= w[0] {
@@ -297,27 +315,31 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
 }
 
 /// Real roots of `a t^2 + b t + c` (any that exist; degenerate cases give
-/// the linear root or none).
-fn quadratic_roots(a: f64, b: f64, c: f64) -> Vec<f64> {
+/// the linear root or none), and how many there are.
+fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
     let scale = a.abs().max(b.abs()).max(c.abs());
     if scale == 0.0 || !scale.is_finite() {
-        return Vec::new();
+        return ([0.0; 2], 0);
     }
     if a.abs() <= 1e-14 * scale {
-        return if b != 0.0 { vec![-c / b] } else { Vec::new() };
+        return if b != 0.0 {
+            ([-c / b, 0.0], 1)
+        } else {
+            ([0.0; 2], 0)
+        };
     }
     let disc = b * b - 4.0 * a * c;
     if disc < 0.0 {
-        return Vec::new();
+        return ([0.0; 2], 0);
     }
     let s = disc.sqrt();
     // Numerically stable pair.
     let q = -0.5 * (b + b.signum() * s);
-    let mut r = vec![q / a];
     if q != 0.0 {
-        r.push(c / q);
+        ([q / a, c / q], 2)
+    } else {
+        ([q / a, 0.0], 1)
     }
-    r
 }
 
 /// Appends the triangles of an ambiguous cell (see the module docs).
@@ -332,26 +354,32 @@ pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>
         return;
     }
     let mut uf = regions(f, &decisions);
-    // Group loops by (inside region, outside region).
-    let mut keys: Vec<(u8, u8)> = Vec::with_capacity(loops.len());
-    for l in &loops {
+    // Group loops by (inside region, outside region). A loop has at least
+    // three of the twelve edges, so there are at most four.
+    let mut keys = [(0u8, 0u8); 4];
+    for (key, l) in keys.iter_mut().zip(&loops) {
         let [a, b] = EDGES[l[0] as usize];
         let (i, o) = if f[a as usize] >= 0.0 { (a, b) } else { (b, a) };
-        keys.push((uf.find(i), uf.find(o)));
+        *key = (uf.find(i), uf.find(o));
     }
-    let mut done = vec![false; loops.len()];
+    let mut done = [false; 4];
     for i in 0..loops.len() {
         if done[i] {
             continue;
         }
-        let group: Vec<usize> = (i..loops.len()).filter(|&j| keys[j] == keys[i]).collect();
-        for &j in &group {
-            done[j] = true;
+        let mut group = [0usize; 4];
+        let mut n = 0;
+        for j in i..loops.len() {
+            if keys[j] == keys[i] {
+                group[n] = j;
+                n += 1;
+                done[j] = true;
+            }
         }
-        if group.len() == 2 {
+        if n == 2 {
             stitch(f, &loops[group[0]], &loops[group[1]], out);
         } else {
-            for &j in &group {
+            for &j in &group[..n] {
                 disk(f, &loops[j], out, extra);
             }
         }
