@@ -244,7 +244,8 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
 #[inline(always)]
 pub(crate) fn in_grid_plane(p: [DVec3; 3]) -> bool {
     // The cheap comparisons first: few triangles lie in any axis plane.
-    (0..3).any(|a| p[1][a] == p[0][a] && p[2][a] == p[0][a] && p[0][a].fract() == 0.0)
+    let flat = |a: f64, b: f64, c: f64| b == a && c == a && a.fract() == 0.0;
+    flat(p[0].x, p[1].x, p[2].x) || flat(p[0].y, p[1].y, p[2].y) || flat(p[0].z, p[1].z, p[2].z)
 }
 
 /// A triangle lying in a grid plane: its index in the output, its points

@@ -444,6 +444,10 @@ fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
         let (mut a, mut b) = (0.0f64, 1.0f64);
         for _ in 0..100 {
             let m = 0.5 * (a + b);
+            if m == a || m == b {
+                // Adjacent numbers: no further step changes the interval.
+                break;
+            }
             let fm = trilinear_value(f, c + (q - c) * m);
             if fm == 0.0 {
                 a = m;
