@@ -318,7 +318,9 @@ UPSAMPLE_CAP = 160e6  # largest upsampled volume (samples); 4 bytes each + FE's 
 
 def plan(vols, quick):
     cfgs = []
-    reps_for = lambda v: 3 if quick else (3 if v["dims"][0] >= 256 else 5)
+    # Enough runs for a steady median: the first runs of a process pay for
+    # fresh memory and thread start-up, in every filter.
+    reps_for = lambda v: 3 if quick else (7 if v["dims"][0] >= 256 else 11)
     for name, v in vols.items():
         if v["group"] == "scaling":
             continue
@@ -357,7 +359,7 @@ def plan(vols, quick):
     scal = [n for n in vols if n.startswith("smooth") and n.endswith("_f32")]
     for name in scal:
         v = vols[name]
-        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=1 if v["dims"][0] >= 512 else 3,
+        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=3 if v["dims"][0] >= 512 else 7,
                     measure_cap=0, density=3, scaling=True)
         cfgs.append(dict(base, kind="fe", label="vtkFlyingEdges3D 2T", threads=2))
         cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T", eps=0.0, threads=2))
@@ -402,7 +404,8 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
         "(the machine is shared: compare the ratios, measured side by side).  ")
     add(f"Mode: {'quick' if quick else 'full'}; total run {elapsed:.0f} s; "
         f"{date or time.strftime('%Y-%m-%d')}.\n")
-    add("Times are the median of 3-5 runs of `Update()` (the scaling runs at 512^3: one run), "
+    add("Times are the median of 7 runs of `Update()` (11 on the volumes under 256^3 "
+        "outside the scaling runs; 3 in the quick mode and for the scaling runs at 512^3), "
         "no normals, gradients or scalars in any filter. Memory: peak RSS (VmHWM) of the "
         "worker process minus its peak after loading the volume. Distances are measured by "
         "`pmc_measure_distance` against S_K of the ORIGINAL volume, in cells, at density 3 "
