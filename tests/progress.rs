@@ -84,6 +84,20 @@ fn progress_is_monotone_when_the_cap_is_reached() {
     assert_progress(&calls);
 }
 
+/// A heavy extraction whose progress callback asks to stop at its second
+/// call (during the work).
+fn break_at_second_call(vol: &Volume<'_>) -> Result<precisemc::Mesh, Error> {
+    let mut n = 0;
+    extract_with_progress(vol, 0.0, &heavy_opts(2), &mut |_| {
+        n += 1;
+        if n >= 2 {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    })
+}
+
 #[test]
 fn break_aborts() {
     let (dims, v) = big();
@@ -92,16 +106,7 @@ fn break_aborts() {
     let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| ControlFlow::Break(()));
     assert_eq!(r, Err(Error::Aborted));
     // At the second call (during the work).
-    let mut n = 0;
-    let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| {
-        n += 1;
-        if n >= 2 {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    });
-    assert_eq!(r, Err(Error::Aborted));
+    assert_eq!(break_at_second_call(&vol), Err(Error::Aborted));
     // At the final 1.0.
     let small = sphere([6, 6, 6], [2.5, 2.5, 2.5], 2.0);
     let r = extract_with_progress(
@@ -132,16 +137,7 @@ fn break_is_prompt() {
     let mut cancelled = std::time::Duration::MAX;
     for _ in 0..3 {
         let t = std::time::Instant::now();
-        let mut n = 0;
-        let r = extract_with_progress(&vol, 0.0, &heavy_opts(2), &mut |_| {
-            n += 1;
-            if n >= 2 {
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        });
-        assert_eq!(r, Err(Error::Aborted));
+        assert_eq!(break_at_second_call(&vol), Err(Error::Aborted));
         cancelled = cancelled.min(t.elapsed());
     }
     assert!(
