@@ -34,6 +34,7 @@
 #include "vtkPointData.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
+#include "vtkSMPTools.h"
 #include "vtkSmartPointer.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkUnsignedCharArray.h"
@@ -41,6 +42,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -780,6 +782,16 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   newPts->SetDataType(
     this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION ? VTK_DOUBLE : VTK_FLOAT);
   newPts->SetNumberOfPoints(numPts);
+  float* floatPts = nullptr;
+  double* doublePts = nullptr;
+  if (newPts->GetDataType() == VTK_FLOAT)
+  {
+    floatPts = vtkFloatArray::SafeDownCast(newPts->GetData())->GetPointer(0);
+  }
+  else
+  {
+    doublePts = vtkDoubleArray::SafeDownCast(newPts->GetData())->GetPointer(0);
+  }
   vtkSmartPointer<vtkFloatArray> newNormals;
   if (computeNormals)
   {
@@ -839,58 +851,84 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     const MeshSelection& selection = selections[static_cast<size_t>(c)];
     const vtkIdType* pointMap = selection.All ? nullptr : selection.PointMap.data();
 
-    for (vtkIdType i = 0; i < np; ++i)
-    {
-      const vtkIdType o = ptOffset + (pointMap ? pointMap[i] : i);
-      if (pointMap && pointMap[i] < 0)
+    // The copies below write disjoint ranges of preallocated arrays: with
+    // more than one thread allowed they run through vtkSMPTools (whose
+    // backend and thread count the application chooses).
+    auto forRange = [this](vtkIdType n, const std::function<void(vtkIdType, vtkIdType)>& f) {
+      if (this->NumberOfThreads == 1 || n < 65536)
       {
-        continue;
-      }
-      double x[3];
-      if (axisAligned)
-      {
-        x[0] = pts[3 * i];
-        x[1] = pts[3 * i + 1];
-        x[2] = pts[3 * i + 2];
+        f(0, n);
       }
       else
       {
-        const double* p = ijk + 3 * i;
-        for (int r = 0; r < 3; ++r)
-        {
-          x[r] = origin[r] + indexToWorld[r][0] * p[0] + indexToWorld[r][1] * p[1] +
-            indexToWorld[r][2] * p[2];
-        }
+        vtkSMPTools::For(0, n, f);
       }
-      newPts->SetPoint(o, x);
-      if (computeNormals)
+    };
+    forRange(np, [&](vtkIdType first, vtkIdType last) {
+      for (vtkIdType i = first; i < last; ++i)
       {
-        float* n = newNormals->GetPointer(3 * o);
-        const float* m = normals + 3 * i;
+        if (pointMap && pointMap[i] < 0)
+        {
+          continue;
+        }
+        const vtkIdType o = ptOffset + (pointMap ? pointMap[i] : i);
+        double x[3];
         if (axisAligned)
         {
-          n[0] = m[0];
-          n[1] = m[1];
-          n[2] = m[2];
+          x[0] = pts[3 * i];
+          x[1] = pts[3 * i + 1];
+          x[2] = pts[3 * i + 2];
         }
         else
         {
-          double v[3];
+          const double* p = ijk + 3 * i;
           for (int r = 0; r < 3; ++r)
           {
-            v[r] = normalMatrix[r][0] * m[0] + normalMatrix[r][1] * m[1] + normalMatrix[r][2] * m[2];
+            x[r] = origin[r] + indexToWorld[r][0] * p[0] + indexToWorld[r][1] * p[1] +
+              indexToWorld[r][2] * p[2];
           }
-          vtkMath::Normalize(v);
-          n[0] = static_cast<float>(v[0]);
-          n[1] = static_cast<float>(v[1]);
-          n[2] = static_cast<float>(v[2]);
+        }
+        if (floatPts)
+        {
+          for (int r = 0; r < 3; ++r)
+          {
+            floatPts[3 * o + r] = static_cast<float>(x[r]);
+          }
+        }
+        else
+        {
+          std::copy(x, x + 3, doublePts + 3 * o);
+        }
+        if (computeNormals)
+        {
+          float* n = newNormals->GetPointer(3 * o);
+          const float* m = normals + 3 * i;
+          if (axisAligned)
+          {
+            n[0] = m[0];
+            n[1] = m[1];
+            n[2] = m[2];
+          }
+          else
+          {
+            double v[3];
+            for (int r = 0; r < 3; ++r)
+            {
+              v[r] =
+                normalMatrix[r][0] * m[0] + normalMatrix[r][1] * m[1] + normalMatrix[r][2] * m[2];
+            }
+            vtkMath::Normalize(v);
+            n[0] = static_cast<float>(v[0]);
+            n[1] = static_cast<float>(v[1]);
+            n[2] = static_cast<float>(v[2]);
+          }
+        }
+        if (!indexPoints.empty())
+        {
+          std::copy(ijk + 3 * i, ijk + 3 * i + 3, indexPoints.begin() + 3 * o);
         }
       }
-      if (!indexPoints.empty())
-      {
-        std::copy(ijk + 3 * i, ijk + 3 * i + 3, indexPoints.begin() + 3 * o);
-      }
-    }
+    });
     const vtkIdType outPoints = static_cast<vtkIdType>(selection.NumberOfPoints);
     const vtkIdType outTriangles = static_cast<vtkIdType>(selection.NumberOfTriangles);
     if (newScalars)
@@ -901,26 +939,29 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       }
     }
 
-    for (vtkIdType k = 0; k < outTriangles; ++k)
-    {
-      const vtkIdType t = selection.All ? k : selection.Triangles[static_cast<size_t>(k)];
-      const int64_t* tri = tris + 3 * t;
-      vtkIdType ids[3];
-      for (int v = 0; v < 3; ++v)
+    unsigned char* levelOut = levels ? levels->GetPointer(0) : nullptr;
+    forRange(outTriangles, [&](vtkIdType first, vtkIdType last) {
+      for (vtkIdType k = first; k < last; ++k)
       {
-        const vtkIdType id = static_cast<vtkIdType>(tri[v]);
-        ids[v] = ptOffset + (pointMap ? pointMap[id] : id);
+        const vtkIdType t = selection.All ? k : selection.Triangles[static_cast<size_t>(k)];
+        const int64_t* tri = tris + 3 * t;
+        vtkIdType ids[3];
+        for (int v = 0; v < 3; ++v)
+        {
+          const vtkIdType id = static_cast<vtkIdType>(tri[v]);
+          ids[v] = ptOffset + (pointMap ? pointMap[id] : id);
+        }
+        vtkIdType* out = conn + 3 * (triOffset + k);
+        out[0] = ids[0];
+        out[1] = ids[flipWinding ? 2 : 1];
+        out[2] = ids[flipWinding ? 1 : 2];
+        offs[triOffset + k] = 3 * (triOffset + k);
+        if (levelOut)
+        {
+          levelOut[triOffset + k] = triLevels[t];
+        }
       }
-      vtkIdType* out = conn + 3 * (triOffset + k);
-      out[0] = ids[0];
-      out[1] = ids[flipWinding ? 2 : 1];
-      out[2] = ids[flipWinding ? 1 : 2];
-      offs[triOffset + k] = 3 * (triOffset + k);
-      if (levels)
-      {
-        levels->SetValue(triOffset + k, triLevels[t]);
-      }
-    }
+    });
     ptOffset += outPoints;
     triOffset += outTriangles;
     meshes[c].reset(); // release memory as soon as copied

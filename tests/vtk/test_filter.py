@@ -240,6 +240,33 @@ def test_threads_do_not_change_the_output():
     assert np.array_equal(triangles(one.GetOutput()), triangles(two.GetOutput()))
 
 
+@pytest.mark.parametrize("precision", [0, 1])
+def test_parallel_copy_into_polydata_matches_one_thread(precision):
+    # Outputs of 65 536 points and more are copied into vtkPolyData through
+    # vtkSMPTools (STDThread here) unless NumberOfThreads is 1: the copy must
+    # not change a bit, in float and double points, with the refinement
+    # levels and normals.
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+    previous = vtkSMPTools.GetBackend()
+    vtkSMPTools.SetBackend("STDThread")
+    try:
+        image = wavelet(32)
+        runs = [precise(image, [160.0], NumberOfThreads=t, Epsilon=0.0005, ComputeLevels=True,
+                        OutputPointsPrecision=precision).GetOutput() for t in (1, 0)]
+        one, many = runs
+        assert one.GetNumberOfPoints() >= 65536
+        assert np.array_equal(points(one), points(many))
+        assert np.array_equal(triangles(one), triangles(many))
+        for name in ("RefinementLevel",):
+            a = vtk_to_numpy(one.GetCellData().GetArray(name))
+            b = vtk_to_numpy(many.GetCellData().GetArray(name))
+            assert np.array_equal(a, b)
+        assert np.array_equal(vtk_to_numpy(one.GetPointData().GetNormals()),
+                              vtk_to_numpy(many.GetPointData().GetNormals()))
+    finally:
+        vtkSMPTools.SetBackend(previous)
+
+
 def test_pipeline_reexecution():
     from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
 
