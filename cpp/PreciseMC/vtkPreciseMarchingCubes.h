@@ -400,8 +400,11 @@ public:
 
   ///@{
   /**
-   * Set/Get the number of worker threads; 0 (the default) uses all cores.
-   * The output does not depend on it.
+   * Set/Get the number of worker threads of the library; 0 (the default)
+   * uses all cores. Unless it is 1, a large output (65 536 points or more)
+   * is also copied into the vtkPolyData through vtkSMPTools, with the
+   * backend and thread count the application set for it. The output does
+   * not depend on it.
    */
   vtkSetClampMacro(NumberOfThreads, int, 0, VTK_INT_MAX);
   vtkGetMacro(NumberOfThreads, int);
