@@ -217,8 +217,15 @@ const MIN_CELLS_PER_SLAB: u64 = 1 << 18;
 /// `cells` cells into for `threads` workers, with refinement off slabs of
 /// at least `min_cells` cells. The output does not depend on it.
 fn slab_count(nz: usize, cells: u64, threads: usize, refine: bool, min_cells: u64) -> usize {
-    // Several slabs a thread, for balance when refinement is uneven.
-    let mut n = nz.min(threads.saturating_mul(8));
+    // Several slabs a thread, for balance when refinement is uneven. Plain
+    // Marching Cubes on one thread needs no balance, and one slab is
+    // assembled in place. (Refinement keeps several: its slabs' welding
+    // maps stay smaller and faster.)
+    let mut n = if threads == 1 && !refine {
+        1
+    } else {
+        nz.min(threads.saturating_mul(8))
+    };
     if !refine {
         n = n.min((cells / min_cells.max(1)).min(usize::MAX as u64) as usize);
     }
@@ -1104,6 +1111,15 @@ mod tests {
         assert_eq!(slab_count(0, 0, 2, false, MIN_CELLS_PER_SLAB), 1);
         // Refinement on: several slabs a thread whatever the size.
         assert_eq!(slab_count(24, 294_912, 2, true, MIN_CELLS_PER_SLAB), 16);
+        // One thread: one slab without refinement, several with it.
+        assert_eq!(
+            slab_count(255, 255u64.pow(3), 1, false, MIN_CELLS_PER_SLAB),
+            1
+        );
+        assert_eq!(
+            slab_count(255, 255u64.pow(3), 1, true, MIN_CELLS_PER_SLAB),
+            8
+        );
         // Slabs stay under 2^31 layers (32-bit cache stamps).
         assert_eq!(slab_count(5 << 31, 5 << 31, 1, false, u64::MAX), 5);
     }
