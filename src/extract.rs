@@ -649,9 +649,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                             let lp = DVec3::from_array(patch.extra[e - 12]);
                             let gp = cell_f + lp;
                             loc[e] = lp;
-                            let inner =
-                                gp.cmpgt(cell_f).all() && gp.cmplt(cell_f + DVec3::ONE).all();
-                            if !weld_all && !count_only && !inner {
+                            if !weld_all && !count_only && !strictly_inside(gp, cell_f) {
                                 out.redo_with_map = true;
                                 break 'layers;
                             }
@@ -750,11 +748,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                 }
                 out.mc_tris += kept.len() as u64;
                 if !sh.refine {
+                    let t_start = out.tris.len();
                     for t in &kept {
-                        mark_flat(&mut out, *t);
                         out.tris.push(*t);
                         out.levels.push(0);
                     }
+                    note_flat(&mut out, t_start);
                     out.counters.per_level[0] += kept.len() as u64;
                     out.counters.nodes_per_level[0] += kept.len() as u64;
                     continue;
@@ -878,8 +877,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                                     // origin, a point just inside the cell
                                     // can round onto its face, where it must
                                     // weld with the face's other points.
-                                    let inner = gp.cmpgt(cell_f).all()
-                                        && gp.cmplt(cell_f + DVec3::ONE).all();
+                                    let inner = strictly_inside(gp, cell_f);
                                     let m = if inner { &mut *local } else { &mut *map };
                                     let mut new = false;
                                     let id = *m.entry(key(gp)).or_insert_with(|| {
@@ -938,11 +936,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                     }
                 }
                 if !count_only {
-                    for n in t_start..out.tris.len() {
-                        if in_grid_plane(out.tris[n].map(|v| out.verts[v as usize])) {
-                            out.flat_tris.push(n as u32);
-                        }
-                    }
+                    note_flat(&mut out, t_start);
                 }
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than
@@ -967,12 +961,22 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
     out
 }
 
-/// Notes `t`, about to be appended to `out.tris`, if it lies in a grid plane.
-#[inline(always)]
-fn mark_flat(out: &mut SlabOut, t: [u32; 3]) {
-    if in_grid_plane(t.map(|v| out.verts[v as usize])) {
-        out.flat_tris.push(out.tris.len() as u32);
+/// Notes which of the slab's triangles from index `from` on lie in a grid
+/// plane (checked while their points are in cache).
+fn note_flat(out: &mut SlabOut, from: usize) {
+    for n in from..out.tris.len() {
+        if in_grid_plane(out.tris[n].map(|v| out.verts[v as usize])) {
+            out.flat_tris.push(n as u32);
+        }
     }
+}
+
+/// Whether the point `gp` (global index coordinates) lies in the open cell
+/// whose lowest corner is `cell_f`. Decided on the global coordinates: far
+/// from the origin a point just inside can round onto the cell's boundary.
+#[inline(always)]
+fn strictly_inside(gp: DVec3, cell_f: DVec3) -> bool {
+    gp.cmpgt(cell_f).all() && gp.cmplt(cell_f + DVec3::ONE).all()
 }
 
 /// Case indices of a row of cells from the inside bits of its four sample

@@ -826,6 +826,19 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     indexPoints.resize(3 * static_cast<size_t>(numPts));
   }
 
+  // The copies below write disjoint ranges of preallocated arrays: for a
+  // large output, with more than one thread allowed, they run through
+  // vtkSMPTools (whose backend and thread count the application chooses).
+  auto forRange = [this](vtkIdType n, const std::function<void(vtkIdType, vtkIdType)>& f) {
+    if (this->NumberOfThreads == 1 || n < 65536)
+    {
+      f(0, n);
+    }
+    else
+    {
+      vtkSMPTools::For(0, n, f);
+    }
+  };
   vtkIdType ptOffset = 0;
   vtkIdType triOffset = 0;
   vtkIdType* conn = connectivity->GetPointer(0);
@@ -851,19 +864,6 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     const MeshSelection& selection = selections[static_cast<size_t>(c)];
     const vtkIdType* pointMap = selection.All ? nullptr : selection.PointMap.data();
 
-    // The copies below write disjoint ranges of preallocated arrays: with
-    // more than one thread allowed they run through vtkSMPTools (whose
-    // backend and thread count the application chooses).
-    auto forRange = [this](vtkIdType n, const std::function<void(vtkIdType, vtkIdType)>& f) {
-      if (this->NumberOfThreads == 1 || n < 65536)
-      {
-        f(0, n);
-      }
-      else
-      {
-        vtkSMPTools::For(0, n, f);
-      }
-    };
     forRange(np, [&](vtkIdType first, vtkIdType last) {
       for (vtkIdType i = first; i < last; ++i)
       {
