@@ -276,7 +276,8 @@ impl Candidate {
 
 /// Samples equal to the isovalue can make two cells emit the same
 /// triangle, flat in a shared face: a pair of opposite orientation bounds
-/// nothing and is removed, a repeated one is kept once. Triangles of two
+/// nothing and is removed (copies of one orientation left over are all
+/// kept: removing one would open the surface). Triangles of two
 /// cells can coincide only in the grid plane between them, so only the
 /// `cand`idates lying in a grid plane are compared. The triangles at the
 /// indices in `drop` go too.
@@ -298,19 +299,21 @@ fn remove_duplicate_triangles(
         if group.len() < 2 {
             continue;
         }
+        // Opposite copies cancel in pairs; the surplus stays, every copy
+        // of it: each cell's patch needs its own to close (two cells can
+        // emit one triangle with the same orientation when it is
+        // degenerate, e.g. three points on one grid edge).
         let ups = group.iter().filter(|g| !g.flipped).count();
         let downs = group.len() - ups;
-        // Keep the surplus orientation once, at its first occurrence.
-        let keep_dir = match ups.cmp(&downs) {
-            std::cmp::Ordering::Greater => Some(false),
-            std::cmp::Ordering::Less => Some(true),
-            std::cmp::Ordering::Equal => None,
-        };
-        let mut kept = false;
+        let (mut drop_up, mut drop_down) = (ups.min(downs), ups.min(downs));
         for g in group {
-            if Some(g.flipped) == keep_dir && !kept {
-                kept = true;
+            let left = if g.flipped {
+                &mut drop_down
             } else {
+                &mut drop_up
+            };
+            if *left > 0 {
+                *left -= 1;
                 drop.push(g.index);
             }
         }
@@ -382,4 +385,65 @@ fn zeroed<T: Default + Clone + Send + Sync>(n: usize) -> Result<Vec<T>, Error> {
 pub(crate) fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
     v.try_reserve_exact(n)
         .map_err(|_| Error::OutOfMemory(n.saturating_mul(std::mem::size_of::<T>())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashMap;
+
+    /// Signed uses of each undirected edge (0 everywhere: closed).
+    fn balance(tris: &[[u64; 3]]) -> HashMap<(u64, u64), i64> {
+        let mut uses = HashMap::new();
+        for t in tris {
+            for c in 0..3 {
+                let (a, b) = (t[c], t[(c + 1) % 3]);
+                *uses.entry((a.min(b), a.max(b))).or_insert(0) += if a < b { 1 } else { -1 };
+            }
+        }
+        uses.retain(|_, u| *u != 0);
+        uses
+    }
+
+    /// Copies of one triangle in both orientations, spread over a mesh of
+    /// other triangles: opposite copies go in pairs, the surplus stays in
+    /// full, the edge balance is unchanged and so is everything else.
+    #[test]
+    fn duplicates_cancel_in_pairs_and_keep_the_balance() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % n
+        };
+        for _ in 0..500 {
+            let (ups, downs) = (next(4) as usize, next(4) as usize);
+            let mut tris: Vec<[u64; 3]> = (0..next(6)).map(|i| [10 + i, 20 + i, 30 + i]).collect();
+            for k in 0..ups + downs {
+                // Rotations of (1, 2, 3) or of its reverse (1, 3, 2).
+                let mut t = if k < ups { [1, 2, 3] } else { [1, 3, 2] };
+                t.rotate_left(next(3) as usize);
+                let at = next(tris.len() as u64 + 1) as usize;
+                tris.insert(at, t);
+            }
+            let before = balance(&tris);
+            let others: Vec<_> = tris.iter().copied().filter(|t| t[0] >= 10).collect();
+            let cand: Vec<Candidate> = tris
+                .iter()
+                .enumerate()
+                .filter(|(_, t)| t[0] < 10)
+                .map(|(i, &t)| Candidate::new(i, t))
+                .collect();
+            let mut levels = vec![0u8; tris.len()];
+            let mut out = tris.clone();
+            remove_duplicate_triangles(cand, Vec::new(), &mut out, &mut levels);
+            assert_eq!(balance(&out), before, "{tris:?} -> {out:?}");
+            let left = out.iter().filter(|t| t[0] < 10 || t[1] < 10).count();
+            assert_eq!(left, ups.abs_diff(downs), "{tris:?} -> {out:?}");
+            let kept: Vec<_> = out.iter().copied().filter(|t| t[0] >= 10).collect();
+            assert_eq!(kept, others);
+            assert_eq!(levels.len(), out.len());
+        }
+    }
 }
