@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::assemble::{assemble, in_grid_plane};
+use crate::assemble::{advise_huge_pages, assemble, in_grid_plane};
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
@@ -455,7 +455,7 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
         &mesh.index_points,
         options.normals,
         pool,
-    );
+    )?;
     stats.time_normals = t_n.elapsed().as_secs_f64();
     stats.time_total = start.elapsed().as_secs_f64();
     stats.output_triangles = mesh.triangles.len() as u64;
@@ -530,6 +530,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
         Mode::Count => u64::MAX,
     };
     let mut reported = 0u64;
+    let mut tris_cap = 0;
     let opts = sh.options;
     // Inside bits and per-row finiteness of the two sample layers of the
     // current cell layer (by z parity): each layer is read once and serves
@@ -568,6 +569,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
             }
             if !count_only && report_emitted(sh, &out, &mut reported, cap) {
                 break 'layers;
+            }
+            if out.tris.capacity() != tris_cap {
+                // The output grew: large buffers on huge pages.
+                tris_cap = out.tris.capacity();
+                advise_huge_pages(&mut out.verts);
+                advise_huge_pages(&mut out.tris);
             }
             // Four sample rows around the current row of cells: (j, k),
             // (j+1, k), (j, k+1), (j+1, k+1).
@@ -796,6 +803,15 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                 // Edges on the cell's faces decide alike in every attempt,
                 // so neighbours still match.
                 const ATTEMPTS: usize = 3;
+                // Under a cap, the leaves this cell may add before the pass
+                // is over it for sure (the other slabs' count lags behind,
+                // so this never stops a pass whose output would fit).
+                let leaf_budget = if count_only || cap == u64::MAX {
+                    u64::MAX
+                } else {
+                    let unreported = out.tris.len() as u64 - reported;
+                    cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported)
+                };
                 for attempt in 0..ATTEMPTS {
                     cache.clear();
                     let mut merged = false;
@@ -820,6 +836,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                         stack: &mut stack,
                         cache: &mut cache,
                         interior_fallback: attempt == 0,
+                        leaf_budget,
                         refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
@@ -858,7 +875,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                             let (merged, area, seen) = (&mut merged, &mut area, &mut seen);
                             let tris = &mut out.tris;
                             let levels = &mut out.levels;
-                            refiner.run(
+                            let within_budget = refiner.run(
                                 root,
                                 true,
                                 &mut |tri: &Tri| {
@@ -895,6 +912,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                                     id
                                 },
                             );
+                            if !within_budget {
+                                // Over the cap: this pass's output is
+                                // dropped, stop here.
+                                sh.over_cap.store(true, Ordering::Relaxed);
+                                break 'layers;
+                            }
                         }
                     }
                     if count_only

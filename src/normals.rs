@@ -3,9 +3,11 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::assemble::reserve;
 use crate::filter::{trilinear_gradient, Trilinear};
 use crate::options::NormalMode;
 use crate::volume::{Scalar, Volume};
+use crate::Error;
 
 /// The cell holding global index point `p`, clamped to the volume, and the
 /// local coordinates of `p` in it.
@@ -39,29 +41,32 @@ fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
     }
 }
 
-/// Normals for `index_points` (empty for [`NormalMode::None`]).
+/// Normals for `index_points` (empty for [`NormalMode::None`]); an error
+/// when their memory is not available.
 pub(crate) fn compute_normals<T: Scalar>(
     filter: &Trilinear<'_, T>,
     volume: &Volume<'_>,
     index_points: &[[f64; 3]],
     mode: NormalMode,
     pool: &rayon::ThreadPool,
-) -> Vec<[f32; 3]> {
+) -> Result<Vec<[f32; 3]>, Error> {
+    let mut normals = Vec::new();
+    if mode == NormalMode::None {
+        return Ok(normals);
+    }
+    reserve(&mut normals, index_points.len())?;
     let g = &filter.grid;
     let dims = g.dims;
     let off = g.index_offset;
     let spacing = volume.spacing;
     match mode {
-        NormalMode::None => Vec::new(),
+        NormalMode::None => {}
         NormalMode::Gradient => pool.install(|| {
-            index_points
-                .par_iter()
-                .map(|p| {
-                    let (c, l) = locate(DVec3::from_array(*p), dims, off);
-                    let v = filter.corners(c);
-                    finish(trilinear_gradient(&v, l), spacing)
-                })
-                .collect()
+            normals.par_extend(index_points.par_iter().map(|p| {
+                let (c, l) = locate(DVec3::from_array(*p), dims, off);
+                let v = filter.corners(c);
+                finish(trilinear_gradient(&v, l), spacing)
+            }))
         }),
         NormalMode::CentralDifference => pool.install(|| {
             let grad = |i: usize, j: usize, k: usize| -> DVec3 {
@@ -85,25 +90,23 @@ pub(crate) fn compute_normals<T: Scalar>(
                 }
                 out
             };
-            index_points
-                .par_iter()
-                .map(|p| {
-                    let (c, l) = locate(DVec3::from_array(*p), dims, off);
-                    let mut n = DVec3::ZERO;
-                    for (q, cc) in crate::tables::cube::CORNERS.iter().enumerate() {
-                        let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
-                            * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
-                            * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
-                        let _ = q;
-                        n += grad(
-                            c[0] + cc[0] as usize,
-                            c[1] + cc[1] as usize,
-                            c[2] + cc[2] as usize,
-                        ) * w;
-                    }
-                    finish(n, spacing)
-                })
-                .collect()
+            normals.par_extend(index_points.par_iter().map(|p| {
+                let (c, l) = locate(DVec3::from_array(*p), dims, off);
+                let mut n = DVec3::ZERO;
+                for (q, cc) in crate::tables::cube::CORNERS.iter().enumerate() {
+                    let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
+                        * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
+                        * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
+                    let _ = q;
+                    n += grad(
+                        c[0] + cc[0] as usize,
+                        c[1] + cc[1] as usize,
+                        c[2] + cc[2] as usize,
+                    ) * w;
+                }
+                finish(n, spacing)
+            }))
         }),
     }
+    Ok(normals)
 }

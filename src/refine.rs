@@ -45,6 +45,10 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// neither decision depends on its own patch, which this fallback is
     /// retried on.
     pub interior_fallback: bool,
+    /// Leaves `run` may still emit before it gives up (`u64::MAX`: no
+    /// limit). A pass under a triangle cap stops a cell as soon as it
+    /// alone would break the cap, instead of refining it to the end.
+    pub leaf_budget: u64,
 }
 
 /// Where a cell may be refined. A sample exactly at the isovalue (or a face
@@ -283,13 +287,15 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
 
     /// Refines `root`; `emit(tri)` receives output triangles in a fixed
     /// order, `vertex(p)` returns the id of a new point (local coordinates).
+    /// Returns false, leaving the output partial, when `leaf_budget` ran
+    /// out.
     pub fn run(
         &mut self,
         root: Tri,
         count_above: bool,
         emit: &mut impl FnMut(&Tri),
         vertex: &mut impl FnMut(DVec3) -> u32,
-    ) {
+    ) -> bool {
         self.stack.clear();
         self.stack.push(root);
         while let Some(t) = self.stack.pop() {
@@ -299,6 +305,10 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 if count_above && self.above(&t) {
                     self.counters.above_eps += 1;
                 }
+                if self.leaf_budget == 0 {
+                    return false;
+                }
+                self.leaf_budget -= 1;
                 self.counters.per_level[lvl.min(15)] += 1;
                 emit(&t);
                 continue;
@@ -349,6 +359,10 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 }
             };
             if nsplit == 0 && centre.is_none() {
+                if self.leaf_budget == 0 {
+                    return false;
+                }
+                self.leaf_budget -= 1;
                 self.counters.per_level[lvl.min(15)] += 1;
                 emit(&t);
                 continue;
@@ -508,5 +522,6 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 });
             }
         }
+        true
     }
 }
