@@ -14,6 +14,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::extract::{key, KeyMap, SlabOut};
+use crate::memory::reserve;
 use crate::mesh::{Mesh, Stats};
 use crate::refine::Counters;
 use crate::volume::Volume;
@@ -379,42 +380,6 @@ fn zeroed<T: Default + Clone + Send + Sync>(n: usize) -> Result<Vec<T>, Error> {
     reserve(&mut v, n)?;
     v.par_extend(rayon::iter::repeat_n(T::default(), n));
     Ok(v)
-}
-
-/// Reserves room for `n` more elements, or reports the bytes missing.
-pub(crate) fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
-    v.try_reserve_exact(n)
-        .map_err(|_| Error::OutOfMemory(n.saturating_mul(std::mem::size_of::<T>())))?;
-    advise_huge_pages(v);
-    Ok(())
-}
-
-/// Asks the kernel for transparent huge pages behind a large buffer's
-/// capacity (Linux, where THP is in `madvise` mode): writing fresh output
-/// memory otherwise takes one page fault per 4 KiB, which cost a fifth of
-/// an unrefined extraction's time. Advice only: nothing changes if the
-/// kernel declines or THP is off. Set `PMC_NO_HUGE_PAGES=1` in the
-/// environment to skip it (read once per process).
-pub(crate) fn advise_huge_pages<T>(v: &mut Vec<T>) {
-    #[cfg(target_os = "linux")]
-    {
-        static OFF: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-        const HUGE: usize = 2 << 20;
-        let start = v.as_mut_ptr() as usize;
-        let end = start + v.capacity() * std::mem::size_of::<T>();
-        let (lo, hi) = (start.next_multiple_of(HUGE), end & !(HUGE - 1));
-        if hi > lo
-            && !*OFF.get_or_init(|| std::env::var_os("PMC_NO_HUGE_PAGES").is_some_and(|v| v != "0"))
-        {
-            // SAFETY: [lo, hi) lies within the vector's allocation, which
-            // it owns; MADV_HUGEPAGE changes no contents.
-            unsafe {
-                libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE);
-            }
-        }
-    }
-    #[cfg(not(target_os = "linux"))]
-    let _ = v;
 }
 
 #[cfg(test)]

@@ -189,8 +189,7 @@ pub(crate) fn prefilter<T: Scalar>(grid: &Grid<'_, T>) -> Result<Vec<f64>, crate
     let [nx, ny, nz] = grid.dims;
     let n = nx * ny * nz;
     let mut c = Vec::new();
-    c.try_reserve_exact(n)
-        .map_err(|_| crate::Error::OutOfMemory(n.saturating_mul(8)))?;
+    crate::memory::reserve(&mut c, n)?;
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {

@@ -18,12 +18,13 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::assemble::{advise_huge_pages, assemble, in_grid_plane};
+use crate::assemble::{assemble, in_grid_plane};
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::layers::{self, LayerScratch, ScratchPool};
 use crate::mc::{case_index, cell_triangles, Patch};
+use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
@@ -530,7 +531,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
         Mode::Count => u64::MAX,
     };
     let mut reported = 0u64;
-    let mut tris_cap = 0;
+    let mut grown_to = (0, 0);
     let opts = sh.options;
     // Inside bits and per-row finiteness of the two sample layers of the
     // current cell layer (by z parity): each layer is read once and serves
@@ -570,9 +571,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
             if !count_only && report_emitted(sh, &out, &mut reported, cap) {
                 break 'layers;
             }
-            if out.tris.capacity() != tris_cap {
+            let caps = (out.verts.capacity(), out.tris.capacity());
+            if caps != grown_to {
                 // The output grew: large buffers on huge pages.
-                tris_cap = out.tris.capacity();
+                grown_to = caps;
                 advise_huge_pages(&mut out.verts);
                 advise_huge_pages(&mut out.tris);
             }
@@ -806,7 +808,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter>(
                 // Under a cap, the leaves this cell may add before the pass
                 // is over it for sure (the other slabs' count lags behind,
                 // so this never stops a pass whose output would fit).
-                let leaf_budget = if count_only || cap == u64::MAX {
+                let leaf_budget = if cap == u64::MAX {
                     u64::MAX
                 } else {
                     let unreported = out.tris.len() as u64 - reported;

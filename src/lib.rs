@@ -55,6 +55,7 @@ mod assemble;
 mod extract;
 mod flat_map;
 mod layers;
+mod memory;
 mod nearest;
 mod normals;
 mod refine;

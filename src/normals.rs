@@ -3,8 +3,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::assemble::reserve;
 use crate::filter::{trilinear_gradient, Trilinear};
+use crate::memory::reserve;
 use crate::options::NormalMode;
 use crate::volume::{Scalar, Volume};
 use crate::Error;

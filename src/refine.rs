@@ -285,6 +285,19 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         false
     }
 
+    /// Emits the output triangle `t` and counts it at its level; false,
+    /// emitting nothing, when the leaf budget is spent.
+    #[inline(always)]
+    fn leaf(&mut self, t: &Tri, emit: &mut impl FnMut(&Tri)) -> bool {
+        if self.leaf_budget == 0 {
+            return false;
+        }
+        self.leaf_budget -= 1;
+        self.counters.per_level[(t.level as usize).min(15)] += 1;
+        emit(t);
+        true
+    }
+
     /// Refines `root`; `emit(tri)` receives output triangles in a fixed
     /// order, `vertex(p)` returns the id of a new point (local coordinates).
     /// Returns false, leaving the output partial, when `leaf_budget` ran
@@ -305,12 +318,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 if count_above && self.above(&t) {
                     self.counters.above_eps += 1;
                 }
-                if self.leaf_budget == 0 {
+                if !self.leaf(&t, emit) {
                     return false;
                 }
-                self.leaf_budget -= 1;
-                self.counters.per_level[lvl.min(15)] += 1;
-                emit(&t);
                 continue;
             }
             let mut mids: [Option<DVec3>; 3] = [None; 3];
@@ -359,12 +369,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 }
             };
             if nsplit == 0 && centre.is_none() {
-                if self.leaf_budget == 0 {
+                if !self.leaf(&t, emit) {
                     return false;
                 }
-                self.leaf_budget -= 1;
-                self.counters.per_level[lvl.min(15)] += 1;
-                emit(&t);
                 continue;
             }
             self.counters.splits += nsplit as u64 + centre.is_some() as u64;
