@@ -90,6 +90,25 @@ pub const FACE_EDGES: [[u8; 4]; 6] = {
     out
 };
 
+/// The faces each vertex id of a patch lies on, bit `f` for `FACES[f]`:
+/// ids 0..12 are cell edges (two faces each), ids 12..16 interior points
+/// of the cell (none). A triangle of a patch can lie flat in a face only
+/// if the masks of its three ids share a bit (or a point sits on a grid
+/// point).
+pub const VERTEX_FACES: [u8; 16] = {
+    let mut out = [0u8; 16];
+    let mut f = 0;
+    while f < 6 {
+        let mut k = 0;
+        while k < 4 {
+            out[FACE_EDGES[f][k] as usize] |= 1 << f;
+            k += 1;
+        }
+        f += 1;
+    }
+    out
+};
+
 /// Whether the sign pattern `case` makes face `f` ambiguous (diagonally
 /// opposite corners agree and adjacent corners differ).
 #[inline]
@@ -165,6 +184,25 @@ mod tests {
                 assert!(corners.contains(&a) && corners.contains(&b));
             }
         }
+    }
+
+    #[test]
+    fn each_edge_lies_on_the_two_faces_of_its_coordinates() {
+        // Edge e lies on face (axis, val) iff both its corners have
+        // coordinate val on that axis.
+        for (e, [a, b]) in EDGES.iter().enumerate() {
+            let (pa, pb) = (CORNERS[*a as usize], CORNERS[*b as usize]);
+            let mut expected = 0u8;
+            for (f, (axis, val, _)) in FACES.iter().enumerate() {
+                let k = *axis as usize;
+                if pa[k] == *val && pb[k] == *val {
+                    expected |= 1 << f;
+                }
+            }
+            assert_eq!(VERTEX_FACES[e], expected, "edge {e}");
+            assert_eq!(expected.count_ones(), 2);
+        }
+        assert!(VERTEX_FACES[12..].iter().all(|&m| m == 0));
     }
 
     #[test]
