@@ -38,7 +38,9 @@
 //! Loops are oriented so that fans wind like `vtkMarchingCubes` (normals
 //! towards lower values); the tube is stitched with the same orientation.
 
-use crate::tables::cube::{face_is_ambiguous, CORNERS, EDGES, FACES, FACE_EDGES};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::tables::cube::{face_is_ambiguous, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES};
 
 struct UnionFind([u8; 8]);
 
@@ -135,9 +137,94 @@ pub fn face_decisions(f: &[f64; 8]) -> [Option<bool>; 6] {
     out
 }
 
+/// A cell's boundary loops: cyclic lists of edges, packed one after the
+/// other (each edge is in at most one loop, so twelve slots suffice and
+/// there are at most four loops of at least three edges).
+pub struct Loops {
+    edges: [u8; 12],
+    /// Loop `k` is `edges[ends[k]..ends[k + 1]]`.
+    ends: [u8; 5],
+    count: usize,
+}
+
+impl Loops {
+    /// How many loops there are.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether there is none.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Loop `k`'s edges in order.
+    pub fn get(&self, k: usize) -> &[u8] {
+        &self.edges[self.ends[k] as usize..self.ends[k + 1] as usize]
+    }
+}
+
+impl Loops {
+    /// Four bits an edge (12 slots), then four bits a loop's length (0:
+    /// no loop), in one word; 0 for no loop at all.
+    fn pack(&self) -> u64 {
+        let mut w = 0u64;
+        for (k, &e) in self.edges.iter().enumerate() {
+            w |= (e as u64) << (4 * k);
+        }
+        for k in 0..self.count {
+            w |= ((self.ends[k + 1] - self.ends[k]) as u64) << (48 + 4 * k);
+        }
+        w
+    }
+
+    fn unpack(w: u64) -> Self {
+        let mut out = Loops {
+            edges: [0; 12],
+            ends: [0; 5],
+            count: 0,
+        };
+        for k in 0..12 {
+            out.edges[k] = (w >> (4 * k)) as u8 & 15;
+        }
+        for k in 0..4 {
+            let n = (w >> (48 + 4 * k)) as u8 & 15;
+            if n == 0 {
+                break;
+            }
+            out.ends[k + 1] = out.ends[k] + n;
+            out.count += 1;
+        }
+        out
+    }
+}
+
+/// The loops of each sign pattern and face decisions found so far, packed
+/// (0: not yet). They depend on nothing else, and finding them is a good
+/// part of an ambiguous cell's cost; filled as cells meet them (racing
+/// writers store the same word), 128 KiB in all.
+static LOOPS_SEEN: [AtomicU64; 1 << 14] = [const { AtomicU64::new(0) }; 1 << 14];
+
 /// Boundary loops of the cell's isosurface, as cyclic lists of edges,
 /// oriented like `vtkMarchingCubes`'s triangles.
-pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
+pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
+    let mut key = super::case_index(f) as usize;
+    for (k, d) in decisions.iter().enumerate() {
+        if *d == Some(true) {
+            key |= 1 << (8 + k);
+        }
+    }
+    let known = LOOPS_SEEN[key].load(Ordering::Relaxed);
+    if known != 0 {
+        return Loops::unpack(known);
+    }
+    let found = find_loops(f, decisions);
+    LOOPS_SEEN[key].store(found.pack(), Ordering::Relaxed);
+    found
+}
+
+/// [`loops`] from scratch.
+fn find_loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
     let inside = |c: u8| f[c as usize] >= 0.0;
     let mut next = [u8::MAX; 12];
     for (k, (axis, val, c)) in FACES.iter().enumerate() {
@@ -216,20 +303,30 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Vec<Vec<u8>> {
         }
     }
     let mut seen = [false; 12];
-    let mut out = Vec::new();
+    let mut out = Loops {
+        edges: [0; 12],
+        ends: [0; 5],
+        count: 0,
+    };
+    let mut len = 0;
     for start in 0..12u8 {
         if next[start as usize] == u8::MAX || seen[start as usize] {
             continue;
         }
-        let mut l = Vec::new();
+        let first = len;
         let mut e = start;
-        while !seen[e as usize] && e != u8::MAX {
+        while e != u8::MAX && !seen[e as usize] {
             seen[e as usize] = true;
-            l.push(e);
+            out.edges[len] = e;
+            len += 1;
             e = next[e as usize];
         }
-        if l.len() >= 3 {
-            out.push(l);
+        if len - first >= 3 {
+            out.count += 1;
+            out.ends[out.count] = len as u8;
+        } else {
+            // Too short to bound anything (degenerate data): dropped.
+            len = first;
         }
     }
     out
@@ -350,15 +447,18 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
 pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
     let decisions = face_decisions(f);
     let loops = loops(f, &decisions);
-    if loops.is_empty() {
-        return;
+    match loops.len() {
+        0 => return,
+        // One loop is one disk, whatever the regions.
+        1 => return disk(f, loops.get(0), out, extra),
+        _ => {}
     }
     let mut uf = regions(f, &decisions);
     // Group loops by (inside region, outside region). A loop has at least
     // three of the twelve edges, so there are at most four.
     let mut keys = [(0u8, 0u8); 4];
-    for (key, l) in keys.iter_mut().zip(&loops) {
-        let [a, b] = EDGES[l[0] as usize];
+    for (k, key) in keys.iter_mut().enumerate().take(loops.len()) {
+        let [a, b] = EDGES[loops.get(k)[0] as usize];
         let (i, o) = if f[a as usize] >= 0.0 { (a, b) } else { (b, a) };
         *key = (uf.find(i), uf.find(o));
     }
@@ -377,10 +477,10 @@ pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>
             }
         }
         if n == 2 {
-            stitch(f, &loops[group[0]], &loops[group[1]], out);
+            stitch(f, loops.get(group[0]), loops.get(group[1]), out);
         } else {
             for &j in &group[..n] {
-                disk(f, &loops[j], out, extra);
+                disk(f, loops.get(j), out, extra);
             }
         }
     }
@@ -390,9 +490,7 @@ pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>
 /// crossings would lie flat in that face, where the neighbouring cell's
 /// patch has its boundary).
 fn share_face(a: u8, b: u8) -> bool {
-    FACE_EDGES
-        .iter()
-        .any(|fe| fe.contains(&a) && fe.contains(&b))
+    VERTEX_FACES[a as usize] & VERTEX_FACES[b as usize] != 0
 }
 
 /// A disk: a fan from the first loop vertex whose diagonals all cross the
@@ -487,9 +585,7 @@ fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
     const FLAT: f64 = 1e6;
     const IN_FACE: f64 = 1e3;
     let flat = |x: u8, y: u8, z: u8| {
-        FACE_EDGES
-            .iter()
-            .any(|fe| fe.contains(&x) && fe.contains(&y) && fe.contains(&z))
+        VERTEX_FACES[x as usize] & VERTEX_FACES[y as usize] & VERTEX_FACES[z as usize] != 0
     };
     // Cost of the triangle closing at diagonal (ia, jb) after advancing.
     let tri_cost = |x: u8, y: u8, z: u8, da: usize, db: usize| {
@@ -578,5 +674,47 @@ fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
             out.push([b[j], a[i], b[j1]]);
             j = j1;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn same(a: &Loops, b: &Loops) -> bool {
+        a.len() == b.len() && (0..a.len()).all(|k| a.get(k) == b.get(k))
+    }
+
+    #[test]
+    fn remembered_loops_are_the_loops() {
+        // Every sign pattern with random magnitudes (so every decision of
+        // its ambiguous faces comes up): the remembered answer, on first
+        // and later calls, is what a fresh search finds, and packing keeps
+        // it whole.
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut loops_seen = 0;
+        for case in 1..255u16 {
+            for _ in 0..40 {
+                let mut f = [0.0; 8];
+                for (k, v) in f.iter_mut().enumerate() {
+                    let m = 0.01 + uniform();
+                    *v = if case >> k & 1 == 1 { m } else { -m };
+                }
+                let d = face_decisions(&f);
+                let fresh = find_loops(&f, &d);
+                assert!(!fresh.is_empty());
+                assert!(same(&Loops::unpack(fresh.pack()), &fresh));
+                assert!(same(&loops(&f, &d), &fresh), "case {case}");
+                assert!(same(&loops(&f, &d), &fresh), "case {case}, again");
+                loops_seen += fresh.len();
+            }
+        }
+        assert!(loops_seen > 254 * 40);
     }
 }
