@@ -113,7 +113,29 @@ impl Refinable {
 /// high half): the split decision, and the id of the split point once a
 /// triangle has split the edge (`u32::MAX` before), so that the triangle
 /// on the other side reuses the point instead of welding it again.
-pub(crate) type EdgeCache = FlatMap<(Option<DVec3>, u32)>;
+pub(crate) type EdgeCache = FlatMap<EdgeDecision>;
+
+/// One edge's entry in the [`EdgeCache`] (plain fields rather than an
+/// `Option<DVec3>`: copies of those cost store-forwarding stalls).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EdgeDecision {
+    /// The split point (local coordinates) when `split`.
+    pub point: DVec3,
+    /// The split point's id, `u32::MAX` until a triangle creates it.
+    pub id: u32,
+    /// Whether the edge splits.
+    pub split: bool,
+}
+
+impl Default for EdgeDecision {
+    fn default() -> Self {
+        EdgeDecision {
+            point: DVec3::ZERO,
+            id: u32::MAX,
+            split: false,
+        }
+    }
+}
 
 /// Refinement statistics, summed over cells.
 #[derive(Debug, Clone, Default)]
@@ -323,7 +345,11 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 }
                 continue;
             }
-            let mut mids: [Option<DVec3>; 3] = [None; 3];
+            // Bit e of `split`: edge e splits at `mid_p[e]`. (A mask and a
+            // plain array: arrays of Option<DVec3> cost store-forwarding
+            // stalls on every copy.)
+            let mut split = 0u8;
+            let mut mid_p = [DVec3::ZERO; 3];
             let mut midpoint = [DVec3::ZERO; 3];
             let mut keys = [0u64; 3];
             for e in 0..3 {
@@ -331,17 +357,27 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
                     let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
                     keys[e] = (a.min(b) as u64) << 32 | a.max(b) as u64;
-                    mids[e] = match self.cache.get(keys[e]) {
-                        Some(r) => r.0,
+                    let d = match self.cache.get(keys[e]) {
+                        Some(d) => d,
                         None => {
                             let r = self.test(midpoint[e], t.fixed[e]);
-                            self.cache.insert_new(keys[e], (r, u32::MAX));
-                            r
+                            let d = EdgeDecision {
+                                point: r.unwrap_or(DVec3::ZERO),
+                                split: r.is_some(),
+                                ..EdgeDecision::default()
+                            };
+                            self.cache.insert_new(keys[e], d);
+                            d
                         }
                     };
+                    if d.split {
+                        split |= 1 << e;
+                        mid_p[e] = d.point;
+                    }
                 }
             }
-            let nsplit = mids.iter().filter(|m| m.is_some()).count();
+            let splits = |e: usize| split & (1 << e) != 0;
+            let nsplit = split.count_ones() as usize;
             let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
             let centre = match self.rule {
                 _ if !self.refinable.interior => None,
@@ -357,8 +393,8 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 Rule::A2 => {
                     let mut shift = DVec3::ZERO;
                     for e in 0..3 {
-                        if let Some(q) = mids[e] {
-                            shift += q - midpoint[e];
+                        if splits(e) {
+                            shift += mid_p[e] - midpoint[e];
                         }
                     }
                     if nsplit > 0 {
@@ -377,16 +413,14 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             self.counters.splits += nsplit as u64 + centre.is_some() as u64;
             // Ids and positions of the new points.
             let mut mid_id = [u32::MAX; 3];
-            let mut mid_p = [DVec3::ZERO; 3];
             for e in 0..3 {
-                if let Some(q) = mids[e] {
-                    mid_p[e] = q;
+                if splits(e) {
                     // A split edge was tested, so it has an entry.
                     if let Some(entry) = self.cache.get_mut(keys[e]) {
-                        if entry.1 == u32::MAX {
-                            entry.1 = vertex(q);
+                        if entry.id == u32::MAX {
+                            entry.id = vertex(mid_p[e]);
                         }
-                        mid_id[e] = entry.1;
+                        mid_id[e] = entry.id;
                     }
                 }
             }
@@ -426,7 +460,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 for e in 0..3 {
                     ring[len] = Slot::V(e);
                     len += 1;
-                    if mids[e].is_some() {
+                    if splits(e) {
                         ring[len] = Slot::M(e);
                         len += 1;
                     }
@@ -438,14 +472,14 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             } else {
                 match nsplit {
                     1 => {
-                        let e = (0..3).find(|&e| mids[e].is_some()).unwrap();
+                        let e = (0..3).find(|&e| splits(e)).unwrap();
                         let (a, b, c) = (e, (e + 1) % 3, (e + 2) % 3);
                         children[0] = [Slot::V(a), Slot::M(e), Slot::V(c)];
                         children[1] = [Slot::M(e), Slot::V(b), Slot::V(c)];
                         n = 2;
                     }
                     2 => {
-                        let u = (0..3).find(|&e| mids[e].is_none()).unwrap();
+                        let u = (0..3).find(|&e| !splits(e)).unwrap();
                         let (e1, e2) = ((u + 1) % 3, (u + 2) % 3);
                         let (vu, vu1, vu2) = (u, (u + 1) % 3, (u + 2) % 3);
                         children[0] = [Slot::M(e1), Slot::V(vu2), Slot::M(e2)];
@@ -484,7 +518,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let mut fresh = [DVec3::ZERO; 4];
             let mut nfresh = 0;
             for e in 0..3 {
-                if mids[e].is_some() {
+                if splits(e) {
                     fresh[nfresh] = mid_p[e];
                     nfresh += 1;
                 }
