@@ -512,6 +512,17 @@ fn process_slab<T: Scalar, F: ReconstructionFilter>(
     out
 }
 
+/// A guess of the Marching Cubes triangles in `layers` cell layers of a
+/// grid of `cell_dims` cells: one and a half times those of a surface
+/// wrapping the slab's share of the box (two per cell of its faces; the
+/// rippled Marschner-Lobb sample has 1.1 times as many), at most 2^22.
+fn surface_guess(cell_dims: [usize; 3], layers: usize) -> usize {
+    let [nx, ny, nz] = cell_dims.map(|n| n as f64);
+    let dz = layers as f64;
+    let faces = 2.0 * nx * ny * dz / nz.max(1.0) + 2.0 * dz * (nx + ny);
+    (3.0 * faces).min((1 << 22) as f64) as usize
+}
+
 /// Triangles a slab gathers before adding them to the shared count (it
 /// reports the rest when it ends).
 const REPORT_BATCH: u64 = 1024;
@@ -529,6 +540,17 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     debug_assert_eq!(REFINE, sh.refine);
     let t0 = Instant::now();
     let mut out = SlabOut::default();
+    if mode != Mode::Count {
+        // Room for a generous guess of the Marching Cubes output up front:
+        // growing by doubling copies every buffer into fresh memory, and
+        // those page faults were two thirds of a small volume's. Pages
+        // left unwritten cost nothing; a failed reservation just leaves
+        // the growth to the pushes.
+        let tris = surface_guess(sh.cell_dims, k1 - k0);
+        let _ = out.tris.try_reserve_exact(tris);
+        let _ = out.levels.try_reserve_exact(tris);
+        let _ = out.verts.try_reserve_exact(tris / 2);
+    }
     let mut map: KeyMap<u32> = KeyMap::default();
     let mut local: KeyMap<u32> = KeyMap::default();
     let mut patch = Patch::default();
@@ -1211,6 +1233,21 @@ mod tests {
                 assert_eq!(m.triangles.len() as u64, m.stats.output_triangles);
             }
         }
+    }
+
+    #[test]
+    fn the_output_guess_holds_the_rippled_sample_and_stays_bounded() {
+        // The rippled Marschner-Lobb sample, about the busiest surface a
+        // grid that size carries, fits the up-front reservation (no
+        // regrowth); huge grids stay under the cap.
+        let ml = crate::samples::marschner_lobb(41);
+        let o = Options::marching_cubes(Topology::Trilinear);
+        let m = extract(&ml.volume(), ml.isovalue, &o).unwrap();
+        let dims = ml.dims.map(|n| n as usize - 1);
+        assert!(surface_guess(dims, dims[2]) >= m.triangles.len());
+        assert!(surface_guess(dims, dims[2]) < 2 * m.triangles.len());
+        assert_eq!(surface_guess([1 << 20; 3], 1 << 20), 1 << 22);
+        assert_eq!(surface_guess([5, 5, 0], 0), 0);
     }
 
     #[test]
