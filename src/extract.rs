@@ -134,8 +134,9 @@ fn extract_in_slabs(
 enum Mode {
     /// Produce the mesh; stop when the cap is exceeded.
     Output { cap: u64 },
-    /// Only count refinement-tree nodes per level.
-    Count,
+    /// Only count refinement-tree nodes per level; stop when the leaves
+    /// exceed the cap (the level does not fit).
+    Count { cap: u64 },
 }
 
 struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
@@ -409,7 +410,12 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
         let mut chosen = 0;
         for l in 1..=max_level {
             let w = 0.3 * (l - 1) as f64 / max_level as f64;
-            let counts = pass(l, Mode::Count, (0.3 + w, 0.3 / max_level as f64))?;
+            let counts = pass(l, Mode::Count { cap: user_cap }, (0.3 + w, 0.3 / max_level as f64))?;
+            // A count pass stops once its leaves exceed the cap: the total
+            // compared below is exactly those leaves.
+            if over_cap.load(Ordering::Relaxed) {
+                break;
+            }
             let mut nodes = [0u64; 16];
             let mut leaves = [0u64; 16];
             for o in &counts {
@@ -540,7 +546,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     debug_assert_eq!(REFINE, sh.refine);
     let t0 = Instant::now();
     let mut out = SlabOut::default();
-    if mode != Mode::Count {
+    if !matches!(mode, Mode::Count { .. }) {
         // Room for a generous guess of the Marching Cubes output up front:
         // growing by doubling copies every buffer into fresh memory, and
         // those page faults were two thirds of a small volume's. Pages
@@ -562,11 +568,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let mut edges = FlatMap::<u32>::default();
     let mut seen = FlatMap::<()>::default();
     let [nx, ny, _] = sh.cell_dims;
-    let count_only = mode == Mode::Count;
-    let cap = match mode {
-        Mode::Output { cap } => cap,
-        Mode::Count => u64::MAX,
-    };
+    let count_only = matches!(mode, Mode::Count { .. });
+    let (Mode::Output { cap } | Mode::Count { cap }) = mode;
     let mut reported = 0u64;
     let mut grown_to = (0, 0);
     // Whether a point of this pass may sit on a grid point (every point
@@ -613,9 +616,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
             // Reported in batches: an atomic add on a shared counter every
             // row costs more than a row of plain Marching Cubes, and a late
             // report only delays stopping a pass whose output is dropped.
-            if !count_only
-                && out.tris.len() as u64 - reported >= REPORT_BATCH
-                && report_emitted(sh, &out, &mut reported, cap)
+            if produced(&out, count_only) - reported >= REPORT_BATCH
+                && report_emitted(sh, produced(&out, count_only), &mut reported, cap)
             {
                 break 'layers;
             }
@@ -886,7 +888,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 let leaf_budget = if cap == u64::MAX {
                     u64::MAX
                 } else {
-                    let unreported = out.tris.len() as u64 - reported;
+                    let unreported = produced(&out, count_only) - reported;
                     cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported)
                 };
                 for attempt in 0..ATTEMPTS {
@@ -942,10 +944,17 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             near: 0,
                         };
                         if count_only {
-                            refiner.run(root, false, &mut |_| {}, &mut |_| {
-                                next_id += 1;
-                                next_id
-                            });
+                            let within_budget =
+                                refiner.run(root, false, &mut |_| {}, &mut |_| {
+                                    next_id += 1;
+                                    next_id
+                                });
+                            if !within_budget {
+                                // More leaves than the cap: the level does
+                                // not fit, whatever the rest counts.
+                                sh.over_cap.store(true, Ordering::Relaxed);
+                                break 'layers;
+                            }
                         } else {
                             let verts = &mut out.verts;
                             let (map, local) = (&mut map, &mut local);
@@ -1041,9 +1050,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than
                 // the cap: check after every cell that emitted many.
-                if !count_only
-                    && out.tris.len() as u64 - reported >= 4096
-                    && report_emitted(sh, &out, &mut reported, cap)
+                if produced(&out, count_only) - reported >= 4096
+                    && report_emitted(sh, produced(&out, count_only), &mut reported, cap)
                 {
                     break 'layers;
                 }
@@ -1053,8 +1061,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         out.layers += 1;
     }
     // The last rows' triangles count towards the cap too.
-    if !count_only && !out.redo_with_map {
-        report_emitted(sh, &out, &mut reported, cap);
+    if !out.redo_with_map {
+        report_emitted(sh, produced(&out, count_only), &mut reported, cap);
     }
     out.reported = reported;
     out.total_time = t0.elapsed();
@@ -1101,15 +1109,25 @@ fn case_row(ins: &[&[u8]; 4], cases: &mut [u8]) {
     }
 }
 
-/// Adds the slab's triangles emitted since the last call to the shared
-/// count; returns true (and raises `over_cap`) when the total exceeds `cap`.
+/// The triangles a slab has produced so far: those in its output, or in a
+/// count pass the leaves it counted.
+fn produced(out: &SlabOut, count_only: bool) -> u64 {
+    if count_only {
+        out.counters.per_level.iter().sum()
+    } else {
+        out.tris.len() as u64
+    }
+}
+
+/// Adds the slab's `n` triangles produced so far (see [`produced`]) to the
+/// shared count, less those reported before; returns true (and raises
+/// `over_cap`) when the total exceeds `cap`.
 fn report_emitted<T: Scalar, F: ReconstructionFilter>(
     sh: &Shared<'_, T, F>,
-    out: &SlabOut,
+    n: u64,
     reported: &mut u64,
     cap: u64,
 ) -> bool {
-    let n = out.tris.len() as u64;
     if n > *reported {
         let total = sh.emitted.fetch_add(n - *reported, Ordering::Relaxed) + (n - *reported);
         *reported = n;

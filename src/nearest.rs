@@ -16,6 +16,8 @@
 //! edges) is then moved to the foot of the sample on `S_K` by a few
 //! Gauss-Newton steps, so that nearby samples do not share it.
 
+use std::collections::BinaryHeap;
+
 use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
@@ -80,6 +82,44 @@ const CHILD_GRID: [[u8; 8]; 8] = {
     t
 };
 
+/// A box in the search's queue, ordered so that the heap's top is the
+/// nearest box, ties broken by size (larger first) and position: a total
+/// order, so the search does not depend on the order boxes were queued.
+struct Queued(Cube);
+
+impl Queued {
+    fn rank(&self, other: &Self) -> std::cmp::Ordering {
+        let (b, c) = (&self.0, &other.0);
+        b.lower
+            .total_cmp(&c.lower)
+            .then(c.size.total_cmp(&b.size))
+            .then(b.lo.x.total_cmp(&c.lo.x))
+            .then(b.lo.y.total_cmp(&c.lo.y))
+            .then(b.lo.z.total_cmp(&c.lo.z))
+    }
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, other: &Self) -> bool {
+        self.rank(other).is_eq()
+    }
+}
+
+impl Eq for Queued {}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Queued {
+    // Reversed: `BinaryHeap` pops its largest element.
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.rank(self)
+    }
+}
+
 fn straddles(f: &[f64; 8]) -> bool {
     f.iter().any(|&v| v <= 0.0) && f.iter().any(|&v| v >= 0.0)
 }
@@ -104,22 +144,13 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
     if root.f.iter().any(|v| !v.is_finite()) || !straddles(&root.f) {
         return Test::Failed;
     }
-    let mut open = vec![root];
+    // The open boxes, nearest first (a heap: searches that open thousands
+    // of boxes, in cells where S_K folds tightly, stay n log n).
+    let mut open = BinaryHeap::from([Queued(root)]);
     for _ in 0..MAX_BOXES {
-        // The nearest open box; ties broken by position (a total order, so
-        // the result does not depend on the order of `open`).
-        let Some(at) = (0..open.len()).min_by(|&x, &y| {
-            let (b, c) = (&open[x], &open[y]);
-            b.lower
-                .total_cmp(&c.lower)
-                .then(c.size.total_cmp(&b.size))
-                .then(b.lo.x.total_cmp(&c.lo.x))
-                .then(b.lo.y.total_cmp(&c.lo.y))
-                .then(b.lo.z.total_cmp(&c.lo.z))
-        }) else {
+        let Some(Queued(b)) = open.pop() else {
             break;
         };
-        let b = open.swap_remove(at);
         if b.lower > epsilon {
             if b.size <= COARSE {
                 return match edge_root(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q)) {
@@ -169,7 +200,7 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
                 c.f[k] = grid[at[k] as usize];
             }
             if straddles(&c.f) {
-                open.push(c);
+                open.push(Queued(c));
             }
         }
     }

@@ -1,0 +1,51 @@
+//! The triangle cap keeps the deepest refinement level whose output fits:
+//! the capped mesh is the uncapped one at the level it reports, and one
+//! level deeper would not fit. (Count passes stop as soon as their leaves
+//! exceed the cap; this checks that the stop never changes the choice.)
+
+use precisemc::{extract, samples, Options, Rule};
+
+#[test]
+fn the_cap_keeps_the_deepest_level_that_fits() {
+    let atoms = samples::atoms(18);
+    let tube = samples::tube(16);
+    for (s, rule) in [(&atoms, Rule::B), (&atoms, Rule::A1), (&tube, Rule::A2)] {
+        let v = s.volume();
+        let base = Options {
+            epsilon: 0.0005,
+            max_level: 7,
+            rule,
+            ..Options::default()
+        };
+        let at_level = |level: u32, threads: usize| {
+            let o = Options {
+                max_level: level,
+                threads,
+                ..base.clone()
+            };
+            extract(&v, s.isovalue, &o).unwrap()
+        };
+        let full = at_level(7, 1).triangles.len() as u64;
+        let mc = at_level(0, 1).triangles.len() as u64;
+        assert!(full > 4 * mc, "{rule:?}: too little refinement to test");
+        for cap in [mc + 1, (mc + full) / 8, (mc + full) / 3, full - 1] {
+            for threads in [1, 2] {
+                let o = Options {
+                    max_triangles: cap,
+                    threads,
+                    ..base.clone()
+                };
+                let m = extract(&v, s.isovalue, &o).unwrap();
+                let level = m.stats.effective_max_level;
+                assert!(m.stats.budget_reached, "{rule:?} cap {cap}");
+                assert!(level < 7);
+                assert!(m.triangles.len() as u64 <= cap, "{rule:?} cap {cap}");
+                let same = at_level(level, threads);
+                assert_eq!(m.triangles, same.triangles, "{rule:?} cap {cap} level {level}");
+                assert_eq!(m.index_points, same.index_points);
+                let deeper = at_level(level + 1, threads).triangles.len() as u64;
+                assert!(deeper > cap, "{rule:?} cap {cap}: level {} fits too", level + 1);
+            }
+        }
+    }
+}
