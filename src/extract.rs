@@ -410,7 +410,11 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
         let mut chosen = 0;
         for l in 1..=max_level {
             let w = 0.3 * (l - 1) as f64 / max_level as f64;
-            let counts = pass(l, Mode::Count { cap: user_cap }, (0.3 + w, 0.3 / max_level as f64))?;
+            let counts = pass(
+                l,
+                Mode::Count { cap: user_cap },
+                (0.3 + w, 0.3 / max_level as f64),
+            )?;
             // A count pass stops once its leaves exceed the cap: the total
             // compared below is exactly those leaves.
             if over_cap.load(Ordering::Relaxed) {
@@ -831,9 +835,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             note_flat(&mut out, mc_start);
                         } else {
                             debug_assert!(
-                                out.tris[mc_start..].iter().all(|t| {
-                                    !in_grid_plane(t.map(|v| out.verts[v as usize]))
-                                }),
+                                out.tris[mc_start..]
+                                    .iter()
+                                    .all(|t| { !in_grid_plane(t.map(|v| out.verts[v as usize])) }),
                                 "a triangle off the cell's faces lies in a grid plane"
                             );
                         }
@@ -944,11 +948,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             near: 0,
                         };
                         if count_only {
-                            let within_budget =
-                                refiner.run(root, false, &mut |_| {}, &mut |_| {
-                                    next_id += 1;
-                                    next_id
-                                });
+                            let within_budget = refiner.run(root, false, &mut |_| {}, &mut |_| {
+                                next_id += 1;
+                                next_id
+                            });
                             if !within_budget {
                                 // More leaves than the cap: the level does
                                 // not fit, whatever the rest counts.

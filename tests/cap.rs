@@ -41,10 +41,17 @@ fn the_cap_keeps_the_deepest_level_that_fits() {
                 assert!(level < 7);
                 assert!(m.triangles.len() as u64 <= cap, "{rule:?} cap {cap}");
                 let same = at_level(level, threads);
-                assert_eq!(m.triangles, same.triangles, "{rule:?} cap {cap} level {level}");
+                assert_eq!(
+                    m.triangles, same.triangles,
+                    "{rule:?} cap {cap} level {level}"
+                );
                 assert_eq!(m.index_points, same.index_points);
                 let deeper = at_level(level + 1, threads).triangles.len() as u64;
-                assert!(deeper > cap, "{rule:?} cap {cap}: level {} fits too", level + 1);
+                assert!(
+                    deeper > cap,
+                    "{rule:?} cap {cap}: level {} fits too",
+                    level + 1
+                );
             }
         }
     }
