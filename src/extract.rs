@@ -33,7 +33,7 @@ use crate::refine::{
     faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
     Counters, EdgeCache, Refinable, Refiner, Tri,
 };
-use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS, VERTEX_FACES};
+use crate::tables::cube::{on_one_face, CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
 
@@ -620,9 +620,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
             // Reported in batches: an atomic add on a shared counter every
             // row costs more than a row of plain Marching Cubes, and a late
             // report only delays stopping a pass whose output is dropped.
-            if produced(&out, count_only) - reported >= REPORT_BATCH
-                && report_emitted(sh, produced(&out, count_only), &mut reported, cap)
-            {
+            let n = produced(&out, count_only);
+            if n - reported >= REPORT_BATCH && report_emitted(sh, n, &mut reported, cap) {
                 break 'layers;
             }
             let caps = (out.verts.capacity(), out.tris.capacity());
@@ -827,11 +826,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         // Every point lies strictly inside its grid edge
                         // or its cell: a triangle is flat exactly when its
                         // three points lie on edges of one face.
-                        let in_a_face = patch.tris.iter().any(|t| {
-                            let [a, b, c] = t.map(|e| VERTEX_FACES[e as usize]);
-                            a & b & c != 0
-                        });
-                        if in_a_face {
+                        if patch.tris.iter().any(|&t| on_one_face(t)) {
                             note_flat(&mut out, mc_start);
                         } else {
                             debug_assert!(
@@ -1053,9 +1048,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 out.refine_time += tr.elapsed();
                 // One row of deeply refined cells can hold far more than
                 // the cap: check after every cell that emitted many.
-                if produced(&out, count_only) - reported >= 4096
-                    && report_emitted(sh, produced(&out, count_only), &mut reported, cap)
-                {
+                let n = produced(&out, count_only);
+                if n - reported >= 4096 && report_emitted(sh, n, &mut reported, cap) {
                     break 'layers;
                 }
             }

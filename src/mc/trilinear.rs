@@ -40,7 +40,9 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::tables::cube::{face_is_ambiguous, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES};
+use crate::tables::cube::{
+    face_is_ambiguous, on_one_face, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES,
+};
 
 struct UnionFind([u8; 8]);
 
@@ -162,9 +164,7 @@ impl Loops {
     pub fn get(&self, k: usize) -> &[u8] {
         &self.edges[self.ends[k] as usize..self.ends[k + 1] as usize]
     }
-}
 
-impl Loops {
     /// Four bits an edge (12 slots), then four bits a loop's length (0:
     /// no loop), in one word; 0 for no loop at all.
     fn pack(&self) -> u64 {
@@ -584,16 +584,13 @@ fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
     let (m, n) = (a.len(), b.len());
     const FLAT: f64 = 1e6;
     const IN_FACE: f64 = 1e3;
-    let flat = |x: u8, y: u8, z: u8| {
-        VERTEX_FACES[x as usize] & VERTEX_FACES[y as usize] & VERTEX_FACES[z as usize] != 0
-    };
     // Cost of the triangle closing at diagonal (ia, jb) after advancing.
     let tri_cost = |x: u8, y: u8, z: u8, da: usize, db: usize| {
         let mut c = dist2(pa[da], pb[db]).sqrt();
         if share_face(a[da], b[db]) {
             c += IN_FACE;
         }
-        if flat(x, y, z) {
+        if on_one_face([x, y, z]) {
             c += FLAT;
         }
         c

@@ -109,6 +109,14 @@ pub const VERTEX_FACES: [u8; 16] = {
     out
 };
 
+/// Whether three vertex ids of a patch (see [`VERTEX_FACES`]) all lie on
+/// one cell face, so that a triangle on them may lie flat in it.
+#[inline]
+pub const fn on_one_face(ids: [u8; 3]) -> bool {
+    VERTEX_FACES[ids[0] as usize] & VERTEX_FACES[ids[1] as usize] & VERTEX_FACES[ids[2] as usize]
+        != 0
+}
+
 /// Whether the sign pattern `case` makes face `f` ambiguous (diagonally
 /// opposite corners agree and adjacent corners differ).
 #[inline]
