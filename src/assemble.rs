@@ -221,6 +221,7 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
         counters.failures += o.counters.failures;
         counters.above_eps += o.counters.above_eps;
         counters.unsound_cells += o.counters.unsound_cells;
+        counters.recut_polygons += o.counters.recut_polygons;
         refine_t += o.refine_time;
         total_t += o.total_time;
     }
@@ -229,6 +230,7 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
     stats.projection_failures = counters.failures;
     stats.faces_above_epsilon = counters.above_eps;
     stats.cells_refined_on_faces_only = counters.unsound_cells;
+    stats.recut_polygons = counters.recut_polygons;
     // The slabs' times are per thread and add up over threads: split the
     // passes' wall time in their proportion.
     let total = total_t.as_secs_f64();

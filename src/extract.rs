@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 use crate::assemble::{assemble, in_grid_plane};
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
+use crate::diagonals::choose_diagonals;
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::layers::{self, LayerScratch, ScratchPool};
@@ -567,6 +568,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let mut stack: Vec<Tri> = Vec::with_capacity(64);
     let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
+    let mut tested = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
     let mut edges = FlatMap::<u32>::default();
@@ -844,6 +846,25 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 }
                 out.mc_tris += kept.len() as u64;
                 let tr = Instant::now();
+                let Some(fc) = edge_filter.or_else(|| sh.filter.load([i, j, k])) else {
+                    out.nonfinite += 1;
+                    continue;
+                };
+                // Polygons whose table diagonals refinement cannot follow
+                // are re-cut first (interior edges split only in cells
+                // free of ties; see `diagonals`).
+                let refinable = Refinable::of_cell(&f);
+                tested.clear();
+                if refinable.interior {
+                    out.counters.recut_polygons += choose_diagonals::<F>(
+                        &fc,
+                        sh.iso,
+                        opts.epsilon,
+                        &mut kept,
+                        &mut pos_of,
+                        &mut tested,
+                    ) as u64;
+                }
                 // Boundary edges of the cell's patch lie on cell faces.
                 uses.clear();
                 for t in &kept {
@@ -856,11 +877,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         }
                     }
                 }
-                let Some(fc) = edge_filter.or_else(|| sh.filter.load([i, j, k])) else {
-                    out.nonfinite += 1;
-                    continue;
-                };
-                let refinable = Refinable::of_cell(&f);
                 let (t_start, v_start) = (out.tris.len(), out.verts.len());
                 let before = out.counters.clone();
                 local.clear();
@@ -924,6 +940,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             }
                         },
                     };
+                    if attempt == 0 {
+                        // The diagonals' tests, already run to choose them.
+                        for (a, b, s) in &tested {
+                            refiner.preset(*a, *b, s);
+                        }
+                    }
                     for (n, t) in kept.iter().enumerate() {
                         let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
                         let mut fixed = [0u8; 3];

@@ -52,6 +52,7 @@ pub mod samples;
 pub mod tables;
 
 mod assemble;
+mod diagonals;
 mod extract;
 mod flat_map;
 mod layers;

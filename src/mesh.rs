@@ -36,6 +36,11 @@ pub struct Stats {
     /// were refined again splitting only the edges on their faces; their
     /// interior edges and centres may then stay farther than epsilon.
     pub cells_refined_on_faces_only: u64,
+    /// Marching Cubes polygons cut along other diagonals before refining,
+    /// because refinement could not bring a diagonal of the case table's
+    /// onto the ideal surface (it crossed a part of the cell the surface
+    /// never enters); 0 with refinement off.
+    pub recut_polygons: u64,
     /// Whether the triangle cap stopped refinement below `max_level`.
     pub budget_reached: bool,
     /// The refinement level actually used (below `max_level` when the cap

@@ -154,6 +154,9 @@ pub(crate) struct Counters {
     /// Split points placed by the nearest-point fallback
     /// ([`Refiner::interior_fallback`]).
     pub nearest_splits: u64,
+    /// Marching Cubes polygons cut along other diagonals before refining
+    /// (see [`crate::diagonals`]).
+    pub recut_polygons: u64,
 }
 
 /// A triangle being refined: vertex ids, local positions, fixed-axis mask
@@ -268,29 +271,100 @@ enum Slot {
     C,
 }
 
+/// What testing one sample point decides: a pure function of the point,
+/// its fixed axes, the cell, the isovalue, epsilon and whether the
+/// nearest-point fallback is on (see [`Refiner::interior_fallback`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sample {
+    /// Where the sample splits, if it does (local coordinates).
+    pub split: Option<DVec3>,
+    /// The gradient line left the cell without meeting `S_K`.
+    pub failed: bool,
+    /// The split point came from the nearest-point fallback.
+    pub by_nearest: bool,
+    /// The line failed and the nearest point of `S_K` in the cell is
+    /// farther than epsilon but not strictly inside the cell (or was not
+    /// found): refinement cannot bring this sample onto the surface.
+    pub stuck: bool,
+}
+
+/// Tests the sample point `p` (see [`Sample`]).
+pub(crate) fn sample<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    fixed: u8,
+    epsilon: f64,
+    fallback: bool,
+) -> Sample {
+    let mut s = Sample {
+        split: None,
+        failed: false,
+        by_nearest: false,
+        stuck: false,
+    };
+    match test::<F>(cell, iso, p, fixed, epsilon) {
+        Test::Failed => {
+            // The gradient line left the cell: the nearest point of
+            // `S_K` in the cell (face) decides instead.
+            s.failed = true;
+            if fixed == 0 && fallback {
+                match nearest::<F>(cell, iso, p, epsilon) {
+                    Test::Far(q) if q.cmpgt(DVec3::ZERO).all() && q.cmplt(DVec3::ONE).all() => {
+                        s.split = Some(q);
+                        s.by_nearest = true;
+                    }
+                    Test::Near => {}
+                    _ => s.stuck = true,
+                }
+            }
+        }
+        Test::Far(q) => s.split = Some(q),
+        Test::Near => {}
+    }
+    s
+}
+
+/// The [`EdgeCache`] key of the edge between points `a` and `b`.
+#[inline]
+pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
+    (a.min(b) as u64) << 32 | a.max(b) as u64
+}
+
 impl<F: ReconstructionFilter> Refiner<'_, F> {
     /// Tests one sample point; returns the relocated point if it must split.
     fn test(&mut self, p: DVec3, fixed: u8) -> Option<DVec3> {
+        let s = sample::<F>(
+            self.cell,
+            self.iso,
+            p,
+            fixed,
+            self.epsilon,
+            self.interior_fallback,
+        );
+        self.count(&s);
+        s.split
+    }
+
+    fn count(&mut self, s: &Sample) {
         self.counters.samples += 1;
-        match test::<F>(self.cell, self.iso, p, fixed, self.epsilon) {
-            Test::Failed => {
-                // The gradient line left the cell: the nearest point of
-                // `S_K` in the cell (face) decides instead.
-                self.counters.failures += 1;
-                if fixed != 0 || !self.interior_fallback {
-                    return None;
-                }
-                match nearest::<F>(self.cell, self.iso, p, self.epsilon) {
-                    Test::Far(q) if q.cmpgt(DVec3::ZERO).all() && q.cmplt(DVec3::ONE).all() => {
-                        self.counters.nearest_splits += 1;
-                        Some(q)
-                    }
-                    _ => None,
-                }
-            }
-            Test::Far(q) => Some(q),
-            Test::Near => None,
-        }
+        self.counters.failures += s.failed as u64;
+        self.counters.nearest_splits += s.by_nearest as u64;
+    }
+
+    /// Records the decision `s` of the edge between points `a` and `b`,
+    /// tested by the caller with this refiner's settings, exactly as
+    /// [`Refiner::run`] would have (the test is not run twice).
+    pub fn preset(&mut self, a: u32, b: u32, s: &Sample) {
+        self.count(s);
+        self.cache.insert_new(
+            edge_key(a, b),
+            EdgeDecision {
+                point: s.split.unwrap_or(DVec3::ZERO),
+                split: s.split.is_some(),
+                ..EdgeDecision::default()
+            },
+        );
     }
 
     /// Whether any sample of `t` is above epsilon (for the statistics at the
@@ -355,8 +429,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             for e in 0..3 {
                 midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
                 if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
-                    let (a, b) = (t.v[e], t.v[(e + 1) % 3]);
-                    keys[e] = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                    keys[e] = edge_key(t.v[e], t.v[(e + 1) % 3]);
                     let d = match self.cache.get(keys[e]) {
                         Some(d) => d,
                         None => {

@@ -116,8 +116,9 @@ impl From<&Stats> for pmc_stats {
             time_assemble,
             time_normals,
             time_total,
-            // Has its own accessor: this struct's layout is fixed (ABI).
+            // Have their own accessors: this struct's layout is fixed (ABI).
             cells_refined_on_faces_only: _,
+            recut_polygons: _,
         } = s.clone();
         pmc_stats {
             cells,
@@ -283,6 +284,23 @@ pub unsafe extern "C" fn pmc_mesh_cells_refined_on_faces_only(mesh: *const pmc_m
     value_boundary(0, || {
         // SAFETY: forwarded contract.
         unsafe { self::mesh(mesh) }.map_or(0, |m| m.stats.cells_refined_on_faces_only)
+    })
+}
+
+/// Marching Cubes polygons cut along other diagonals before refinement,
+/// because refinement could not bring a diagonal of the case table's onto
+/// the ideal surface (see `recut_polygons` in the README). 0 for a `NULL`
+/// mesh and with refinement off. Not in `pmc_stats`, whose layout is
+/// fixed.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_recut_polygons(mesh: *const pmc_mesh) -> u64 {
+    value_boundary(0, || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.stats.recut_polygons)
     })
 }
 

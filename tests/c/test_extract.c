@@ -389,6 +389,49 @@ static void test_cells_refined_on_faces_only(void) {
     pmc_options_free(o);
 }
 
+/* A cell where the surface hugs the top face: the case table's diagonal
+ * crosses the part of the cell the surface never enters, so refinement
+ * re-cuts the polygon first, and the count says so (0 for NULL and with
+ * refinement off). Corner values from the "atoms" sample. */
+static void test_recut_polygons(void) {
+    static const double f[8] = {113.68658, 99.584435, 71.3651, 118.850815,
+                                49.37087, 48.697723, 40.276493, 68.39907};
+    static const int corner[8][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                                     {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+    double data[27];
+    pmc_volume v;
+    pmc_options *o = pmc_options_new();
+    pmc_mesh *m = NULL;
+    /* A 3x3x3 volume whose first cell is the one above; the other
+     * samples copy their nearest corner of it. */
+    for (int z = 0; z < 3; z++)
+        for (int y = 0; y < 3; y++)
+            for (int x = 0; x < 3; x++) {
+                int c = 0;
+                for (int k = 0; k < 8; k++)
+                    if (corner[k][0] == (x > 0) && corner[k][1] == (y > 0) && corner[k][2] == (z > 0))
+                        c = k;
+                data[x + 3 * y + 9 * z] = f[c];
+            }
+    memset(&v, 0, sizeof v);
+    v.data = data;
+    v.len = 27;
+    v.scalar_type = PMC_SCALAR_TYPE_F64;
+    v.dims[0] = v.dims[1] = v.dims[2] = 3;
+    for (int a = 0; a < 3; a++) v.spacing[a] = 1.0;
+    CHECK(pmc_mesh_recut_polygons(NULL) == 0);
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.0), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 50.5, o, &m), PMC_STATUS_OK);
+    CHECK(pmc_mesh_recut_polygons(m) == 0);
+    pmc_mesh_free(m);
+    m = NULL;
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.001), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 50.5, o, &m), PMC_STATUS_OK);
+    CHECK(pmc_mesh_recut_polygons(m) > 0);
+    pmc_mesh_free(m);
+    pmc_options_free(o);
+}
+
 int main(void) {
     test_layout();
     test_sphere();
@@ -398,5 +441,6 @@ int main(void) {
     test_options_effects();
     test_nonfinite_samples();
     test_cells_refined_on_faces_only();
+    test_recut_polygons();
     return test_finish("test_extract");
 }
