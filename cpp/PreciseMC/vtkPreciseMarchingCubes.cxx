@@ -360,6 +360,7 @@ void vtkPreciseMarchingCubes::ResetStatistics()
   this->NumberOfProjectionFailures = 0;
   this->NumberOfFacesAboveEpsilon = 0;
   this->NumberOfCellsRefinedOnFacesOnly = 0;
+  this->NumberOfRecutPolygons = 0;
   this->BudgetReached = false;
   this->ExecutionTime = 0.0;
 }
@@ -761,6 +762,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     this->NumberOfProjectionFailures += stats.projection_failures;
     this->NumberOfFacesAboveEpsilon += stats.faces_above_epsilon;
     this->NumberOfCellsRefinedOnFacesOnly += pmc_mesh_cells_refined_on_faces_only(mesh.get());
+    this->NumberOfRecutPolygons += pmc_mesh_recut_polygons(mesh.get());
     this->BudgetReached = this->BudgetReached || stats.budget_reached;
     totalPoints += selection.NumberOfPoints;
     totalTriangles += selection.NumberOfTriangles;
@@ -1220,6 +1222,7 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "NumberOfFacesAboveEpsilon: " << this->NumberOfFacesAboveEpsilon << "\n";
   os << indent << "NumberOfCellsRefinedOnFacesOnly: " << this->NumberOfCellsRefinedOnFacesOnly
      << "\n";
+  os << indent << "NumberOfRecutPolygons: " << this->NumberOfRecutPolygons << "\n";
   os << indent << "BudgetReached: " << (this->BudgetReached ? "true" : "false") << "\n";
   os << indent << "ExecutionTime: " << this->ExecutionTime << "\n";
   os << indent << "NumberOfExecutions: " << this->NumberOfExecutions << "\n";

@@ -430,6 +430,10 @@ public:
    *   unsound (split points meeting, a patch turned inside out) and that
    *   were refined again on their faces' edges only (their interior may
    *   stay farther than Epsilon).
+   * - NumberOfRecutPolygons: Marching Cubes polygons cut along other
+   *   diagonals before refining, because refinement could not bring a
+   *   diagonal of the case table's onto the isosurface (0 with
+   *   refinement off).
    * - BudgetReached: whether MaxTriangles (or the library's safety cap)
    *   stopped refinement early for some contour value.
    * - ExecutionTime: wall time of the library calls, seconds.
@@ -445,6 +449,7 @@ public:
   vtkGetMacro(NumberOfProjectionFailures, vtkTypeUInt64);
   vtkGetMacro(NumberOfFacesAboveEpsilon, vtkTypeUInt64);
   vtkGetMacro(NumberOfCellsRefinedOnFacesOnly, vtkTypeUInt64);
+  vtkGetMacro(NumberOfRecutPolygons, vtkTypeUInt64);
   vtkGetMacro(BudgetReached, bool);
   vtkGetMacro(ExecutionTime, double);
   ///@}
@@ -493,6 +498,7 @@ protected:
   vtkTypeUInt64 NumberOfProjectionFailures;
   vtkTypeUInt64 NumberOfFacesAboveEpsilon;
   vtkTypeUInt64 NumberOfCellsRefinedOnFacesOnly;
+  vtkTypeUInt64 NumberOfRecutPolygons;
   bool BudgetReached;
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;

@@ -700,3 +700,21 @@ def test_cells_refined_on_faces_only_are_counted():
     s = precise(image_from_array(sphere), [4.0], Epsilon=0.01, MaxLevel=3, Rule=3)
     assert s.GetNumberOfRefinedTriangles() > s.GetNumberOfMCTriangles()
     assert s.GetNumberOfCellsRefinedOnFacesOnly() == 0
+
+
+def test_recut_polygons_are_counted():
+    # A cell of the "atoms" sample where the surface hugs the top face: the
+    # case table's diagonal crosses the part of the cell the surface never
+    # enters, so the library re-cuts the polygon before refining and the
+    # filter reports it; plain Marching Cubes keeps the table's cut.
+    corners = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
+    f = [113.68658, 99.584435, 71.3651, 118.850815, 49.37087, 48.697723, 40.276493, 68.39907]
+    values = np.empty((3, 3, 3))
+    for k in range(3):
+        for j in range(3):
+            for i in range(3):
+                values[k, j, i] = f[corners.index((int(i > 0), int(j > 0), int(k > 0)))]
+    r = precise(image_from_array(values), [50.5], Epsilon=0.001)
+    assert r.GetNumberOfRecutPolygons() > 0
+    m = precise(image_from_array(values), [50.5], Epsilon=0.0)
+    assert m.GetNumberOfRecutPolygons() == 0
