@@ -305,34 +305,17 @@ fn thin_features_refine_where_gradient_lines_miss() {
     // epsilon 0.001 without the fallback). Marschner-Lobb keeps a few
     // triangles far away (cells whose nearest point of S_K is on a face):
     // only its mean is bounded.
-    use precisemc::{accuracy, samples};
+    use precisemc::samples;
     for (s, max_bound, mean_bound) in [
         (samples::tube(48), 0.15, 0.001),
         (samples::marschner_lobb(41), f64::INFINITY, 0.003),
     ] {
-        let vol = s.volume();
-        let opts = Options {
-            epsilon: 0.001,
-            rule: Rule::A1,
-            ..Options::default()
-        };
-        let mesh = extract(&vol, s.isovalue, &opts).unwrap();
+        let (mesh, m) = refined_at_a_thousandth(&s, 2);
         assert!(
             mesh.stats.projection_failures > 0,
             "{}: nothing to rescue",
             s.name
         );
-        let m = accuracy::measure(
-            &vol,
-            s.isovalue,
-            &mesh.index_points,
-            &mesh.triangles,
-            &accuracy::MeasureOptions {
-                density: 2,
-                ..Default::default()
-            },
-        )
-        .unwrap();
         assert!(
             m.max < max_bound && m.mean < mean_bound,
             "{}: max {} mean {}",
@@ -352,27 +335,11 @@ fn polygons_are_recut_where_table_diagonals_cannot_reach_the_surface() {
     // 0.10 without re-cutting, measured independently). Re-cut along
     // diagonals refinement can follow, the max distance falls below 0.07
     // (0.053 and 0.036 measured).
-    use precisemc::{accuracy, samples};
+    use precisemc::samples;
     for s in [samples::atoms(40), samples::tube(48)] {
-        let vol = s.volume();
-        let opts = Options {
-            epsilon: 0.001,
-            rule: Rule::A1,
-            ..Options::default()
-        };
-        let mesh = extract(&vol, s.isovalue, &opts).unwrap();
+        let (mesh, m) = refined_at_a_thousandth(&s, 3);
         assert!(mesh.stats.recut_polygons > 0, "{}: nothing re-cut", s.name);
-        let m = accuracy::measure(
-            &vol,
-            s.isovalue,
-            &mesh.index_points,
-            &mesh.triangles,
-            &accuracy::MeasureOptions {
-                density: 3,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let vol = s.volume();
         assert!(m.max < 0.07, "{}: max {} mean {}", s.name, m.max, m.mean);
         // Plain Marching Cubes is the case table's, untouched.
         let mc = extract(
@@ -383,4 +350,31 @@ fn polygons_are_recut_where_table_diagonals_cannot_reach_the_surface() {
         .unwrap();
         assert_eq!(mc.stats.recut_polygons, 0);
     }
+}
+
+/// A sample refined with rule A1 at epsilon 0.001, and its distance to
+/// S_K measured independently (`accuracy::measure` at `density`).
+fn refined_at_a_thousandth(
+    s: &precisemc::samples::SampleVolume,
+    density: u32,
+) -> (Mesh, precisemc::accuracy::Distance) {
+    let vol = s.volume();
+    let opts = Options {
+        epsilon: 0.001,
+        rule: Rule::A1,
+        ..Options::default()
+    };
+    let mesh = extract(&vol, s.isovalue, &opts).unwrap();
+    let m = precisemc::accuracy::measure(
+        &vol,
+        s.isovalue,
+        &mesh.index_points,
+        &mesh.triangles,
+        &precisemc::accuracy::MeasureOptions {
+            density,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    (mesh, m)
 }

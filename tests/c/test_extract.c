@@ -358,6 +358,16 @@ static void test_nonfinite_samples(void) {
     free((void *)v.data);
 }
 
+/* An n x n x n float64 volume over `data`, unit spacing. */
+static void cube_volume(pmc_volume *v, double *data, int n) {
+    memset(v, 0, sizeof *v);
+    v->data = data;
+    v->len = (uint64_t)n * n * n;
+    v->scalar_type = PMC_SCALAR_TYPE_F64;
+    v->dims[0] = v->dims[1] = v->dims[2] = (uint64_t)n;
+    for (int a = 0; a < 3; a++) v->spacing[a] = 1.0;
+}
+
 /* A cell where straight gradient lines from two split points meet on the
  * surface: the refined patch is unsound, so the cell is refined again on
  * its faces only, and the count says so (0 for NULL). */
@@ -372,12 +382,7 @@ static void test_cells_refined_on_faces_only(void) {
     for (int i = 0; i < 64; i++) data[i] = -1.0;
     for (int c = 0; c < 8; c++)
         data[(corner[c][0] + 1) + 4 * (corner[c][1] + 1) + 16 * (corner[c][2] + 1)] = f[c];
-    memset(&v, 0, sizeof v);
-    v.data = data;
-    v.len = 64;
-    v.scalar_type = PMC_SCALAR_TYPE_F64;
-    v.dims[0] = v.dims[1] = v.dims[2] = 4;
-    for (int a = 0; a < 3; a++) v.spacing[a] = 1.0;
+    cube_volume(&v, data, 4);
     CHECK(pmc_mesh_cells_refined_on_faces_only(NULL) == 0);
     CHECK_STATUS(pmc_options_set_epsilon(o, 0.01), PMC_STATUS_OK);
     CHECK_STATUS(pmc_options_set_max_level(o, 3), PMC_STATUS_OK);
@@ -413,12 +418,7 @@ static void test_recut_polygons(void) {
                         c = k;
                 data[x + 3 * y + 9 * z] = f[c];
             }
-    memset(&v, 0, sizeof v);
-    v.data = data;
-    v.len = 27;
-    v.scalar_type = PMC_SCALAR_TYPE_F64;
-    v.dims[0] = v.dims[1] = v.dims[2] = 3;
-    for (int a = 0; a < 3; a++) v.spacing[a] = 1.0;
+    cube_volume(&v, data, 3);
     CHECK(pmc_mesh_recut_polygons(NULL) == 0);
     CHECK_STATUS(pmc_options_set_epsilon(o, 0.0), PMC_STATUS_OK);
     CHECK_STATUS(pmc_extract(&v, 50.5, o, &m), PMC_STATUS_OK);
