@@ -141,26 +141,24 @@ pub(crate) fn choose_diagonals<F: ReconstructionFilter>(
     if !stuck {
         return 0;
     }
-    // Triangles joined across shared edges form the patch's polygons:
-    // label each by its first triangle.
-    let mut label = [u8::MAX; MAX_TRIS];
+    // Triangles joined across shared edges form the patch's polygons.
+    let mut seen = [false; MAX_TRIS];
     let mut recut = 0;
     for root in 0..m {
-        if label[root] != u8::MAX {
+        if seen[root] {
             continue;
         }
         let mut members = [0u8; MAX_TRIS];
-        let mut nt = 0;
-        label[root] = root as u8;
+        seen[root] = true;
         members[0] = root as u8;
-        nt += 1;
+        let mut nt = 1;
         let mut k = 0;
         while k < nt {
             let x = members[k] as usize;
             k += 1;
             for &y in &twin[x] {
-                if y != u8::MAX && label[y as usize] == u8::MAX {
-                    label[y as usize] = root as u8;
+                if y != u8::MAX && !seen[y as usize] {
+                    seen[y as usize] = true;
                     members[nt] = y;
                     nt += 1;
                 }
@@ -220,23 +218,18 @@ fn recut_polygon<F: ReconstructionFilter>(
     if nb != n {
         return false;
     }
+    // Walk the outline from its first edge: ring[k] and its position.
     let mut ring = [0u32; MAX_POLYGON];
     let mut at = [DVec3::ZERO; MAX_POLYGON];
-    (ring[0], at[0]) = (outline[0].0, outline[0].2);
-    for k in 1..n {
-        match outline[..n].iter().find(|o| o.0 == ring[k - 1]) {
-            Some(o) => ring[k] = o.1,
-            None => return false,
-        }
-        match outline[..n].iter().find(|o| o.0 == ring[k]) {
-            Some(o) => at[k] = o.2,
+    let mut edge = outline[0];
+    for k in 0..n {
+        (ring[k], at[k]) = (edge.0, edge.2);
+        match outline[..n].iter().find(|o| o.0 == edge.1) {
+            Some(&o) => edge = o,
             None => return false,
         }
     }
-    let closes = outline[..n]
-        .iter()
-        .any(|o| o.0 == ring[n - 1] && o.1 == ring[0]);
-    if !closes || (0..n).any(|a| (a + 1..n).any(|b| ring[a] == ring[b])) {
+    if edge.0 != ring[0] || (0..n).any(|a| (a + 1..n).any(|b| ring[a] == ring[b])) {
         return false;
     }
     let index = |v: u32| (0..n).find(|&k| ring[k] == v).unwrap_or(0);
