@@ -534,6 +534,11 @@ fn surface_guess(cell_dims: [usize; 3], layers: usize) -> usize {
     (3.0 * faces).min((1 << 22) as f64) as usize
 }
 
+/// Squared twice-area (local cell units) below which a refined triangle
+/// counts as having no area (see the attempts in [`slab_pass`]); refined
+/// triangles of a unit cell are many orders of magnitude larger.
+const MIN_DOUBLE_AREA2: f64 = 1e-28;
+
 /// Triangles a slab gathers before adding them to the shared count (it
 /// reports the rest when it ends).
 const REPORT_BATCH: u64 = 1024;
@@ -909,6 +914,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 for attempt in 0..ATTEMPTS {
                     cache.clear();
                     let mut merged = false;
+                    let mut sliver = false;
                     let nearest_before = out.counters.nearest_splits;
                     let mut area = DVec3::ZERO;
                     seen.clear();
@@ -979,6 +985,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             let verts = &mut out.verts;
                             let (map, local) = (&mut map, &mut local);
                             let (merged, area, seen) = (&mut merged, &mut area, &mut seen);
+                            let sliver = &mut sliver;
                             let tris = &mut out.tris;
                             let levels = &mut out.levels;
                             let within_budget = refiner.run(
@@ -987,7 +994,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                 &mut |tri: &Tri| {
                                     tris.push(tri.v);
                                     levels.push(tri.level);
-                                    *area += vector_area(tri.p);
+                                    let a = vector_area(tri.p);
+                                    *sliver |= a.length_squared() < MIN_DOUBLE_AREA2;
+                                    *area += a;
                                 },
                                 &mut |p: DVec3| {
                                     let gp = cell_f + p;
@@ -1026,28 +1035,34 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             }
                         }
                     }
+                    // Nearest points (of samples near a face, or off the
+                    // band along the faces) can land within rounding of
+                    // each other without welding: a triangle with no area
+                    // means this attempt's nearest splits are undone.
+                    let slivered = sliver && out.counters.nearest_splits != nearest_before;
                     if count_only
                         || attempt == ATTEMPTS - 1
                         || !refinable.interior
-                        || if merged {
-                            // A nearest point may weld with another point
-                            // into a vertex where the patch touches itself,
-                            // which the checks below do not see.
-                            out.counters.nearest_splits == nearest_before
-                                && sound_patch(
-                                    cell_f,
-                                    &out.tris[t_start..],
-                                    &out.verts,
-                                    &pos_of,
-                                    &mut edges,
-                                )
-                        } else {
-                            debug_assert!(
-                                soundly_connected(&out.tris[t_start..], &mut edges),
-                                "a patch without merged points is a subdivision"
-                            );
-                            faces_like_marching_cubes(area, &pos_of)
-                        }
+                        || (!slivered
+                            && if merged {
+                                // A nearest point may weld with another point
+                                // into a vertex where the patch touches itself,
+                                // which the checks below do not see.
+                                out.counters.nearest_splits == nearest_before
+                                    && sound_patch(
+                                        cell_f,
+                                        &out.tris[t_start..],
+                                        &out.verts,
+                                        &pos_of,
+                                        &mut edges,
+                                    )
+                            } else {
+                                debug_assert!(
+                                    soundly_connected(&out.tris[t_start..], &mut edges),
+                                    "a patch without merged points is a subdivision"
+                                );
+                                faces_like_marching_cubes(area, &pos_of)
+                            })
                     {
                         break;
                     }

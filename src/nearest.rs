@@ -131,13 +131,30 @@ fn straddles(f: &[f64; 8]) -> bool {
 /// the straddling test) or the search gives up. A pure function of its
 /// arguments.
 pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsilon: f64) -> Test {
+    nearest_within::<F>(cell, iso, p, epsilon, 0.0)
+}
+
+/// [`nearest`] over the cell shrunk by `margin` on every side (the box
+/// `[margin, 1 - margin]^3`, local units, `0 <= margin < 0.5`): points of
+/// `S_K` closer than that to a cell face are not looked at.
+pub fn nearest_within<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    epsilon: f64,
+    margin: f64,
+) -> Test {
     let f = |x: DVec3| F::value(cell, x) - iso;
     let mut root = Cube {
-        lo: DVec3::ZERO,
-        size: 1.0,
+        lo: DVec3::splat(margin),
+        size: 1.0 - 2.0 * margin,
         f: [0.0; 8],
         lower: 0.0,
     };
+    root.lower = (root.lo - p)
+        .max(p - (root.lo + DVec3::splat(root.size)))
+        .max(DVec3::ZERO)
+        .length();
     for k in 0..8 {
         root.f[k] = f(root.corner(k));
     }
@@ -153,7 +170,8 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
         };
         if b.lower > epsilon {
             if b.size <= COARSE {
-                return match edge_root(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q)) {
+                return match edge_root(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q, margin))
+                {
                     Some(x) => Test::Far(x),
                     None => Test::Failed,
                 };
@@ -165,7 +183,7 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
             }
             // Too small to tell apart from epsilon: far, but barely.
             if b.size <= epsilon * 0.125 {
-                return match polish::<F>(cell, iso, p, q) {
+                return match polish::<F>(cell, iso, p, q, margin) {
                     Some(x) => Test::Far(x),
                     None => Test::Failed,
                 };
@@ -216,27 +234,50 @@ pub fn nearest<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, epsi
 /// nearby samples whose searches stop in the same box would share it (and
 /// weld), and its place on a box edge can line it up exactly with other
 /// points.
-fn polish<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, q: DVec3) -> Option<DVec3> {
+fn polish<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    q: DVec3,
+    margin: f64,
+) -> Option<DVec3> {
+    let (lo, hi) = (DVec3::splat(margin), DVec3::splat(1.0 - margin));
+    let inside = |y: DVec3| y.cmpge(lo).all() && y.cmple(hi).all();
+    // Within a margin the foot may lie beyond the box (on the band it
+    // leaves out): steps that leave the box are clamped onto it and the
+    // axes they hit held there, so the iteration finds the foot on the
+    // box's face instead. (On the whole cell such a foot is on the
+    // neighbour's side; those searches give up, as the doc says.)
+    let clamp = margin > 0.0;
+    let mut held = DVec3::ONE;
     let mut x = q;
     for _ in 0..24 {
         let (v, g) = F::value_gradient(cell, x);
+        let g = g * held;
         let len2 = g.length_squared();
         if !(len2 > 0.0 && len2.is_finite()) {
             return None;
         }
+        // The sample seen in the plane of the held axes.
+        let target = x + (p - x) * held;
         // Half steps: where the distance is near S_K's radius of
         // curvature, full steps oscillate about the foot (and diverge
         // beyond it); half steps damp that for any ratio below 3.
-        let mut y = (x + p - g * ((v - iso + g.dot(p - x)) / len2)) * 0.5;
+        let mut y = (x + target - g * ((v - iso + g.dot(target - x)) / len2)) * 0.5;
+        if clamp && !inside(y) {
+            let c = y.clamp(lo, hi);
+            held *= DVec3::select(c.cmpne(y), DVec3::ZERO, DVec3::ONE);
+            y = c;
+        }
         // A step out of the cell is shortened (the foot may lie inside
         // though a full step overshoots); one that stays out gives up.
         for _ in 0..4 {
-            if y.cmpge(DVec3::ZERO).all() && y.cmple(DVec3::ONE).all() {
+            if inside(y) {
                 break;
             }
             y = (x + y) * 0.5;
         }
-        if !(y.cmpge(DVec3::ZERO).all() && y.cmple(DVec3::ONE).all()) {
+        if !inside(y) {
             return None;
         }
         let step = (y - x).length();
@@ -250,10 +291,10 @@ fn polish<F: ReconstructionFilter>(cell: &F::Cell, iso: f64, p: DVec3, q: DVec3)
     // it must lie on S_K: Newton steps along the gradient finish.
     for _ in 0..4 {
         let (v, g) = F::value_gradient(cell, x);
+        let g = g * held;
         let len2 = g.length_squared();
         if (v - iso).abs() <= 1e-12 * len2.sqrt() {
-            let inside = x.cmpge(DVec3::ZERO).all() && x.cmple(DVec3::ONE).all();
-            return (inside && (x - p).length() <= (q - p).length() + COARSE).then_some(x);
+            return (inside(x) && (x - p).length() <= (q - p).length() + COARSE).then_some(x);
         }
         if !(len2 > 0.0 && len2.is_finite()) {
             return None;
@@ -293,12 +334,19 @@ mod tests {
     /// Distance from `p` to `S_K` of the cell `c` (isovalue 0) and the
     /// point, from a dense grid of z-segments (within about 1/n).
     fn dense_nearest(c: &[f64; 8], p: DVec3, n: usize) -> (f64, DVec3) {
+        dense_nearest_within(c, p, n, 0.0)
+    }
+
+    /// [`dense_nearest`] over the box `[margin, 1 - margin]^3`.
+    fn dense_nearest_within(c: &[f64; 8], p: DVec3, n: usize, margin: f64) -> (f64, DVec3) {
         let mut best = (f64::INFINITY, DVec3::ZERO);
+        let size = 1.0 - 2.0 * margin;
         for i in 0..=n {
             for j in 0..=n {
                 for k in 0..n {
-                    let a = DVec3::new(i as f64, j as f64, k as f64) / n as f64;
-                    let b = a + DVec3::new(0.0, 0.0, 1.0 / n as f64);
+                    let a = DVec3::splat(margin)
+                        + DVec3::new(i as f64, j as f64, k as f64) * (size / n as f64);
+                    let b = a + DVec3::new(0.0, 0.0, size / n as f64);
                     let (fa, fb) = (trilinear_value(c, a), trilinear_value(c, b));
                     if (fa > 0.0) != (fb > 0.0) {
                         let q = a + (b - a) * (fa / (fa - fb));
@@ -364,6 +412,47 @@ mod tests {
         assert!(
             near > 20 && far > 300 && rescued > 5,
             "{near} near, {far} far, {failed} failed, {rescued} rescued"
+        );
+    }
+
+    #[test]
+    fn within_a_margin_finds_the_nearest_point_off_the_faces() {
+        // Samples whose nearest point of S_K lies on (or next to) a cell
+        // face: with a margin the answer stays in the shrunken box, on
+        // S_K, and is about as near as the box's nearest point of S_K (a
+        // dense search over the box) — also where the foot in the whole
+        // cell lies on a face and the plain search gives up.
+        let mut x = 777u64;
+        let mut rnd = move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let margin = 1.0 / 64.0;
+        let (lo, hi) = (DVec3::splat(margin), DVec3::splat(1.0 - margin));
+        let (mut far, mut on_band, mut rescued) = (0, 0, 0);
+        for _ in 0..600 {
+            // S_K hugging the face z = 0: the upper corners well outside.
+            let mut c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
+            for v in &mut c[4..] {
+                *v = -1.0 - rnd();
+            }
+            let p = DVec3::new(rnd(), rnd(), 0.2 + 0.6 * rnd());
+            let (best, _) = dense_nearest_within(&c, p, 48, margin);
+            if let Test::Far(q) = nearest_within::<Tri>(&c, 0.0, p, 1e-3, margin) {
+                far += 1;
+                assert!(trilinear_value(&c, q).abs() < 1e-9, "{q} off S_K");
+                assert!(q.cmpge(lo).all() && q.cmple(hi).all(), "{q} in the band");
+                let d = (q - p).length();
+                assert!(d <= best + COARSE * 3f64.sqrt(), "{d} vs {best}");
+                on_band += (q.z - margin < 1e-12) as u32;
+                rescued += matches!(nearest::<Tri>(&c, 0.0, p, 1e-3), Test::Failed) as u32;
+            }
+        }
+        assert!(
+            far > 200 && on_band > 20 && rescued > 20,
+            "{far} far, {on_band} on the band's face, {rescued} rescued"
         );
     }
 }

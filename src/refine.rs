@@ -15,7 +15,7 @@ use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
 use crate::flat_map::FlatMap;
-use crate::nearest::nearest;
+use crate::nearest::{nearest, nearest_within};
 use crate::options::Rule;
 use crate::project::{seems_far, test, Test};
 
@@ -284,9 +284,17 @@ pub(crate) struct Sample {
     pub by_nearest: bool,
     /// The line failed and the nearest point of `S_K` in the cell is
     /// farther than epsilon but not strictly inside the cell (or was not
-    /// found): refinement cannot bring this sample onto the surface.
+    /// found): refinement cannot bring this sample onto the surface, only
+    /// split it at the nearest point at least [`FACE_BAND`] inside (when
+    /// there is one, in `split`).
     pub stuck: bool,
 }
+
+/// Width (local units) of the band along the cell faces where a stuck
+/// sample's split point may not go (see [`Sample::stuck`]): a point
+/// closer to a face would make triangles all but flat in it, where the
+/// neighbour's patch has its outline.
+pub(crate) const FACE_BAND: f64 = 1.0 / 256.0;
 
 /// Tests the sample point `p` (see [`Sample`]).
 pub(crate) fn sample<F: ReconstructionFilter>(
@@ -315,7 +323,18 @@ pub(crate) fn sample<F: ReconstructionFilter>(
                         s.by_nearest = true;
                     }
                     Test::Near => {}
-                    _ => s.stuck = true,
+                    _ => {
+                        // The surface's nearest point lies on a face (where
+                        // S_K hugs it; or its foot could not be settled
+                        // inside): the best point strictly inside is the
+                        // nearest one off the band along the faces.
+                        s.stuck = true;
+                        if let Test::Far(q) = nearest_within::<F>(cell, iso, p, epsilon, FACE_BAND)
+                        {
+                            s.split = Some(q);
+                            s.by_nearest = true;
+                        }
+                    }
                 }
             }
         }
