@@ -331,6 +331,18 @@ mod tests {
 
     type Tri = Trilinear<'static, f64>;
 
+    /// A seeded stream of uniform numbers in [0, 1) (a linear
+    /// congruential generator).
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Distance from `p` to `S_K` of the cell `c` (isovalue 0) and the
     /// point, from a dense grid of z-segments (within about 1/n).
     fn dense_nearest(c: &[f64; 8], p: DVec3, n: usize) -> (f64, DVec3) {
@@ -367,13 +379,7 @@ mod tests {
         // answer has S_K within epsilon (up to the dense search's
         // resolution). Some samples whose gradient line misses S_K must be
         // rescued (the point of the fallback).
-        let mut x = 12345u64;
-        let mut rnd = move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(12345);
         let (mut near, mut far, mut failed, mut rescued) = (0, 0, 0, 0);
         for _ in 0..600 {
             let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
@@ -422,13 +428,7 @@ mod tests {
         // S_K, and is about as near as the box's nearest point of S_K (a
         // dense search over the box) — also where the foot in the whole
         // cell lies on a face and the plain search gives up.
-        let mut x = 777u64;
-        let mut rnd = move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rnd = uniform(777);
         let margin = 1.0 / 64.0;
         let (lo, hi) = (DVec3::splat(margin), DVec3::splat(1.0 - margin));
         let (mut far, mut on_band, mut rescued) = (0, 0, 0);
