@@ -45,6 +45,14 @@ struct Cube {
 }
 
 impl Cube {
+    /// Distance from `p` to the box (0 inside).
+    fn distance(lo: DVec3, size: f64, p: DVec3) -> f64 {
+        (lo - p)
+            .max(p - (lo + DVec3::splat(size)))
+            .max(DVec3::ZERO)
+            .length()
+    }
+
     fn corner(&self, k: usize) -> DVec3 {
         let c = CORNERS[k];
         self.lo + DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64) * self.size
@@ -145,16 +153,13 @@ pub fn nearest_within<F: ReconstructionFilter>(
     margin: f64,
 ) -> Test {
     let f = |x: DVec3| F::value(cell, x) - iso;
+    let (lo, size) = (DVec3::splat(margin), 1.0 - 2.0 * margin);
     let mut root = Cube {
-        lo: DVec3::splat(margin),
-        size: 1.0 - 2.0 * margin,
+        lo,
+        size,
         f: [0.0; 8],
-        lower: 0.0,
+        lower: Cube::distance(lo, size, p),
     };
-    root.lower = (root.lo - p)
-        .max(p - (root.lo + DVec3::splat(root.size)))
-        .max(DVec3::ZERO)
-        .length();
     for k in 0..8 {
         root.f[k] = f(root.corner(k));
     }
@@ -209,10 +214,7 @@ pub fn nearest_within<F: ReconstructionFilter>(
                 lo,
                 size: half,
                 f: [0.0; 8],
-                lower: (lo - p)
-                    .max(p - (lo + DVec3::splat(half)))
-                    .max(DVec3::ZERO)
-                    .length(),
+                lower: Cube::distance(lo, half, p),
             };
             for k in 0..8 {
                 c.f[k] = grid[at[k] as usize];
