@@ -771,20 +771,25 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                     t = s;
                                 }
                             }
-                            let mut g = [
+                            let (x, y, z) = (
                                 (cell_g[0] + ca[0] as i64) as f64,
                                 (cell_g[1] + ca[1] as i64) as f64,
                                 (cell_g[2] + ca[2] as i64) as f64,
-                            ];
-                            let base = g[ax];
-                            g[ax] += t;
-                            let gp = DVec3::from_array(g);
+                            );
+                            // Built in registers: a store of one lane then
+                            // a load of the vector stalls store forwarding.
+                            let (base, gp) = match ax {
+                                0 => (x, DVec3::new(x + t, y, z)),
+                                1 => (y, DVec3::new(x, y + t, z)),
+                                _ => (z, DVec3::new(x, y, z + t)),
+                            };
+                            let moved = base + t;
                             loc[e] = gp - cell_f;
                             if count_only {
                                 ids[e] = e as u32;
                             } else {
                                 let next = out.verts.len() as u32;
-                                let id = if !weld_all && g[ax] != base && g[ax] != base + 1.0 {
+                                let id = if !weld_all && moved != base && moved != base + 1.0 {
                                     // Strictly inside the edge: first seen here.
                                     out.verts.push(gp);
                                     next
