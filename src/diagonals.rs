@@ -19,7 +19,7 @@
 use glam::DVec3;
 
 use crate::filter::ReconstructionFilter;
-use crate::refine::{sample, shared_fixed_axes, Sample};
+use crate::refine::{sample_edge, shared_fixed_axes, Sample};
 
 /// Polygons up to this many vertices are re-cut (an ambiguous cell's
 /// disk has at most twelve crossings).
@@ -80,7 +80,7 @@ fn diagonal<F: ReconstructionFilter>(
         };
     }
     let m = (a + b) * 0.5;
-    let s = sample::<F>(cell, iso, m, 0, epsilon, true);
+    let s = sample_edge::<F>(cell, iso, a, b, 0, epsilon, true);
     Diagonal {
         cost: Cost {
             stuck: s.stuck as u32,
@@ -320,6 +320,7 @@ mod tests {
     use super::*;
     use crate::filter::Trilinear;
     use crate::mc::{cell_triangles, Patch};
+    use crate::refine::sample;
     use crate::tables::cube::{CORNERS, EDGES};
     use crate::Topology;
 
@@ -430,8 +431,8 @@ mod tests {
             want.sort_unstable();
             assert_eq!(got, want, "the final diagonals' tests, each once");
             for &(a, b, s) in &tested {
-                let m = (crossing(&f, a) + crossing(&f, b)) * 0.5;
-                let fresh = sample::<Filter>(&f, 0.0, m, 0, 1e-3, true);
+                let (pa, pb) = (crossing(&f, a), crossing(&f, b));
+                let fresh = sample_edge::<Filter>(&f, 0.0, pa, pb, 0, 1e-3, true);
                 assert_eq!((s.split, s.stuck), (fresh.split, fresh.stuck));
             }
             if r == 0 {

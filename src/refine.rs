@@ -344,6 +344,133 @@ pub(crate) fn sample<F: ReconstructionFilter>(
     s
 }
 
+/// Tests the edge between local points `a` and `b` at its midpoint, as
+/// [`sample`] does, but, for an interior edge whose midpoint's gradient
+/// line misses `S_K`, splits it where its longer child is shorter. The
+/// nearest point of `S_K` that then decides can lie far along the edge
+/// (more than a quarter of its length from the midpoint, next to one
+/// end): the children keep nearly the whole edge, and `S_K` between its
+/// ends is never sampled however deep refinement goes (folds and necks of
+/// `S_K` that a Marching Cubes triangle spans). There `S_K` is also sought
+/// in the plane bisecting the edge ([`bisector_root`]), and the point
+/// found is taken when it makes the longer child shorter. (Doing the same
+/// where the gradient line does meet `S_K` far along the edge changes
+/// nothing for the trilinear filter and folds triangles of the smoothing
+/// B-spline.) A pure function of the edge: the ends are put in a fixed
+/// order first.
+pub(crate) fn sample_edge<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    a: DVec3,
+    b: DVec3,
+    fixed: u8,
+    epsilon: f64,
+    fallback: bool,
+) -> Sample {
+    let m = (a + b) * 0.5;
+    let mut s = sample::<F>(cell, iso, m, fixed, epsilon, fallback);
+    let (Some(q), true, 0) = (s.split, s.failed, fixed) else {
+        return s;
+    };
+    let (a, b) = if a.to_array() <= b.to_array() {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let e = b - a;
+    if ((q - m).dot(e)).abs() <= 0.25 * e.length_squared() {
+        return s;
+    }
+    let longer = |x: DVec3| (x - a).length().max((b - x).length());
+    if let Some(r) = bisector_root::<F>(cell, iso, m, e) {
+        if longer(r) < longer(q) {
+            s.split = Some(r);
+        }
+    }
+    s
+}
+
+/// Steps of the grid over the bisecting plane (see [`bisector_root`]).
+const BISECTOR_GRID: usize = 24;
+
+/// The point of `S_K` nearest to `m` found in the plane through `m`
+/// orthogonal to `e`, strictly inside the cell (a point on a face would
+/// make triangles lying flat in it, where the neighbour's patch may lie
+/// too): the roots on the segments of a square grid over the plane's part
+/// in the cell whose ends' values straddle the isovalue. (A grid, not
+/// lines through `m`: the plane meets `S_K` in curves that such lines can
+/// all miss.) `None` when there is none.
+fn bisector_root<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    m: DVec3,
+    e: DVec3,
+) -> Option<DVec3> {
+    // An orthonormal basis of the plane, across the axis least aligned
+    // with e.
+    let k = (0..3)
+        .min_by(|&i, &j| e[i].abs().total_cmp(&e[j].abs()))
+        .unwrap_or(0);
+    let u = e.cross(DVec3::AXES[k]).normalize_or_zero();
+    let v = e.cross(u).normalize_or_zero();
+    if u == DVec3::ZERO || v == DVec3::ZERO {
+        return None;
+    }
+    // The plane's part in the cell lies within the cell corners' shadow.
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for c in 0..8 {
+        let corner = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
+        let st = [(corner - m).dot(u), (corner - m).dot(v)];
+        for i in 0..2 {
+            lo[i] = lo[i].min(st[i]);
+            hi[i] = hi[i].max(st[i]);
+        }
+    }
+    const N: usize = BISECTOR_GRID;
+    let at = |i: usize, j: usize| {
+        let s = lo[0] + (hi[0] - lo[0]) * i as f64 / N as f64;
+        let t = lo[1] + (hi[1] - lo[1]) * j as f64 / N as f64;
+        m + u * s + v * t
+    };
+    let inside = |p: DVec3| p.cmpgt(DVec3::ZERO).all() && p.cmplt(DVec3::ONE).all();
+    let value = |p: DVec3| {
+        if inside(p) {
+            F::value(cell, p) - iso
+        } else {
+            f64::NAN
+        }
+    };
+    let mut row = [f64::NAN; N + 1];
+    let mut best: Option<(f64, DVec3)> = None;
+    for j in 0..=N {
+        let mut left = f64::NAN;
+        for i in 0..=N {
+            let p = at(i, j);
+            let q = value(p);
+            // Segments to the left and below whose ends straddle iso.
+            let segments = [
+                (i > 0).then(|| (at(i - 1, j), left)),
+                (j > 0).then(|| (at(i, j - 1), row[i])),
+            ];
+            for (other, qo) in segments.into_iter().flatten() {
+                if q.is_nan() || qo.is_nan() || ((q < 0.0) == (qo < 0.0) && q != 0.0 && qo != 0.0) {
+                    continue;
+                }
+                let line = |x: f64| F::value(cell, other + (p - other) * x) - iso;
+                let x = crate::project::solve(&line, 0.0, qo, 1.0, q);
+                let r = other + (p - other) * x;
+                let d = (r - m).length();
+                if inside(r) && best.map_or(true, |(bd, _)| d < bd) {
+                    best = Some((d, r));
+                }
+            }
+            left = q;
+            row[i] = q;
+        }
+    }
+    best.map(|(_, r)| r)
+}
+
 /// The [`EdgeCache`] key of the edge between points `a` and `b`.
 #[inline]
 pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
@@ -452,7 +579,17 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                     let d = match self.cache.get(keys[e]) {
                         Some(d) => d,
                         None => {
-                            let r = self.test(midpoint[e], t.fixed[e]);
+                            let s = sample_edge::<F>(
+                                self.cell,
+                                self.iso,
+                                t.p[e],
+                                t.p[(e + 1) % 3],
+                                t.fixed[e],
+                                self.epsilon,
+                                self.interior_fallback,
+                            );
+                            self.count(&s);
+                            let r = s.split;
                             let d = EdgeDecision {
                                 point: r.unwrap_or(DVec3::ZERO),
                                 split: r.is_some(),
@@ -656,5 +793,119 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             }
         }
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::{trilinear_value, Trilinear};
+
+    type Tri = Trilinear<'static, f64>;
+
+    /// A seeded stream of uniform numbers in [0, 1).
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// A random cell (isovalue 0) and a random edge between two points of
+    /// `S_K` on its grid edges, as Marching Cubes makes them.
+    fn random_edge(rnd: &mut impl FnMut() -> f64) -> Option<([f64; 8], DVec3, DVec3)> {
+        use crate::tables::cube::{CORNERS, EDGES};
+        let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
+        let crossings: Vec<DVec3> = EDGES
+            .iter()
+            .filter_map(|&[a, b]| {
+                let (fa, fb) = (c[a as usize], c[b as usize]);
+                ((fa > 0.0) != (fb > 0.0)).then(|| {
+                    let corner = |k: u8| {
+                        let k = CORNERS[k as usize];
+                        DVec3::new(k[0] as f64, k[1] as f64, k[2] as f64)
+                    };
+                    corner(a) + (corner(b) - corner(a)) * (fa / (fa - fb))
+                })
+            })
+            .collect();
+        if crossings.len() < 2 {
+            return None;
+        }
+        let i = (rnd() * crossings.len() as f64) as usize;
+        let j = (i + 1 + (rnd() * (crossings.len() - 1) as f64) as usize) % crossings.len();
+        Some((c, crossings[i], crossings[j]))
+    }
+
+    /// The longer of the two children of edge `a b` split at `x`.
+    fn longer(a: DVec3, b: DVec3, x: DVec3) -> f64 {
+        (x - a).length().max((x - b).length())
+    }
+
+    #[test]
+    fn edge_decisions_do_not_depend_on_the_order_of_the_ends() {
+        // Both triangles on an edge (and both cells on a face) must split
+        // it at the same point, bit for bit, or the mesh cracks.
+        let mut rnd = uniform(99);
+        let mut across = 0;
+        for _ in 0..12000 {
+            let Some((c, a, b)) = random_edge(&mut rnd) else {
+                continue;
+            };
+            let fixed = shared_fixed_axes(a, b);
+            let ab = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
+            let ba = sample_edge::<Tri>(&c, 0.0, b, a, fixed, 1e-3, true);
+            assert_eq!(
+                ab.split.map(|p| p.to_array().map(f64::to_bits)),
+                ba.split.map(|p| p.to_array().map(f64::to_bits)),
+                "edge {a} {b} of {c:?}"
+            );
+            let plain = sample::<Tri>(&c, 0.0, (a + b) * 0.5, fixed, 1e-3, true);
+            across += (plain.split != ab.split) as u32;
+        }
+        assert!(across > 50, "only {across} edges split across");
+    }
+
+    #[test]
+    fn edges_split_across_where_the_split_point_runs_along_them() {
+        // Interior edges whose gradient line misses S_K and whose nearest
+        // point of S_K lies far along the edge: the point chosen instead
+        // lies on S_K, strictly inside the cell, and leaves a shorter
+        // longer child. Every other decision is the plain one.
+        let mut rnd = uniform(2024);
+        let (mut along, mut across) = (0, 0);
+        for _ in 0..20000 {
+            let Some((c, a, b)) = random_edge(&mut rnd) else {
+                continue;
+            };
+            let fixed = shared_fixed_axes(a, b);
+            let m = (a + b) * 0.5;
+            let plain = sample::<Tri>(&c, 0.0, m, fixed, 1e-3, true);
+            let chosen = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
+            assert_eq!(plain.split.is_some(), chosen.split.is_some());
+            let (Some(q), Some(r)) = (plain.split, chosen.split) else {
+                continue;
+            };
+            let e = b - a;
+            if fixed != 0 || !plain.failed || (q - m).dot(e).abs() <= 0.25 * e.length_squared() {
+                assert_eq!(q, r, "only a failed line's far point is re-placed");
+                continue;
+            }
+            along += 1;
+            if r == q {
+                continue;
+            }
+            across += 1;
+            assert!(trilinear_value(&c, r).abs() < 1e-9, "{r} off S_K");
+            assert!(longer(a, b, r) < longer(a, b, q));
+            assert!(r.cmpgt(DVec3::ZERO).all() && r.cmplt(DVec3::ONE).all());
+        }
+        assert!(
+            along > 30 && across > 10,
+            "{along} split far along, {across} re-placed"
+        );
     }
 }
