@@ -470,7 +470,9 @@ typedef struct pmc_stats {
 /**
  * Progress callback: `fraction` goes from 0.0 to 1.0 and never decreases.
  * Called on the thread that called `pmc_extract`, first with 0.0, then
- * about every 20 ms, and last with 1.0 on success. Return 0 to continue,
+ * about every 20 ms (not in between for plain Marching Cubes of up to
+ * 4 Mi cells on one thread, a few milliseconds of work done on the calling
+ * thread), and last with 1.0 on success. Return 0 to continue,
  * any other value to stop: the callback is not called again, and
  * `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
  * and produces no mesh.

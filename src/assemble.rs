@@ -10,24 +10,24 @@
 
 use std::time::Duration;
 
-use glam::DVec3;
-use rayon::prelude::*;
-
 use crate::extract::{key, KeyMap, SlabOut};
 use crate::memory::reserve;
 use crate::mesh::{Mesh, Stats};
+use crate::par::Exec;
 use crate::refine::Counters;
 use crate::volume::Volume;
 use crate::Error;
+use glam::DVec3;
 
 /// Welds the slabs' outputs (in slab order) into a mesh and fills the
 /// statistics they carry; splits `passes_wall` (seconds) into the Marching
-/// Cubes and refinement times. Runs on the current rayon pool.
+/// Cubes and refinement times. The parallel steps run on `exec`.
 pub(crate) fn assemble(
     mut outs: Vec<SlabOut>,
     volume: &Volume<'_>,
     passes_wall: f64,
     stats: &mut Stats,
+    exec: Exec<'_>,
 ) -> Result<Mesh, Error> {
     sum_counters(&outs, passes_wall, stats);
     let n = outs.len();
@@ -36,40 +36,35 @@ pub(crate) fn assemble(
     let planes: Vec<(f64, f64)> = if n == 1 {
         Vec::new()
     } else {
-        outs.par_iter()
-            .map(|o| {
-                o.verts
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                        (lo.min(v.z), hi.max(v.z))
-                    })
-            })
-            .collect()
+        exec.map(outs.iter().collect(), |o| {
+            o.verts
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v.z), hi.max(v.z))
+                })
+        })
     };
     // Points of a slab's bottom plane that the slab before holds on its
     // top plane: (id here, id there), in increasing id here.
-    let links: Vec<Vec<(u32, u32)>> = (0..n)
-        .into_par_iter()
-        .map(|s| {
-            if s == 0 || planes[s - 1].1 != planes[s].0 {
-                return Vec::new();
+    let links: Vec<Vec<(u32, u32)>> = exec.map((0..n).collect(), |s| {
+        if s == 0 || planes[s - 1].1 != planes[s].0 {
+            return Vec::new();
+        }
+        let plane = planes[s].0;
+        let mut before: KeyMap<u32> = KeyMap::default();
+        for (i, v) in outs[s - 1].verts.iter().enumerate() {
+            if v.z == plane {
+                before.insert(key(*v), i as u32);
             }
-            let plane = planes[s].0;
-            let mut before: KeyMap<u32> = KeyMap::default();
-            for (i, v) in outs[s - 1].verts.iter().enumerate() {
-                if v.z == plane {
-                    before.insert(key(*v), i as u32);
-                }
-            }
-            outs[s]
-                .verts
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| v.z == plane)
-                .filter_map(|(i, v)| before.get(&key(*v)).map(|&j| (i as u32, j)))
-                .collect()
-        })
-        .collect();
+        }
+        outs[s]
+            .verts
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| v.z == plane)
+            .filter_map(|(i, v)| before.get(&key(*v)).map(|&j| (i as u32, j)))
+            .collect()
+    });
 
     // New points: numbered slab after slab, written in parallel. A slab
     // with no point on the plane below keeps its own numbering shifted by
@@ -82,38 +77,39 @@ pub(crate) fn assemble(
     let mut index_points = if n == 1 {
         Vec::new()
     } else {
-        zeroed::<[f64; 3]>(fresh.iter().sum())?
+        zeroed::<[f64; 3]>(exec, fresh.iter().sum())?
     };
     let mut remaps: Vec<Vec<u64>> = if n == 1 {
         vec![Vec::new()]
     } else {
-        outs.par_iter()
+        let items = outs
+            .iter()
             .zip(&links)
             .zip(split_mut(&mut index_points, &fresh))
             .zip(&starts)
-            .map(|(((o, link), out), &start)| {
-                if link.is_empty() {
-                    for (w, v) in out.iter_mut().zip(&o.verts) {
-                        *w = v.to_array();
-                    }
-                    return Vec::new();
+            .collect();
+        exec.map(items, |(((o, link), out), &start)| {
+            if link.is_empty() {
+                for (w, v) in out.iter_mut().zip(&o.verts) {
+                    *w = v.to_array();
                 }
-                let mut remap = Vec::with_capacity(o.verts.len());
-                let (mut l, mut w) = (0, 0);
-                for (i, v) in o.verts.iter().enumerate() {
-                    if l < link.len() && link[l].0 as usize == i {
-                        // Filled in below, once the slab before is numbered.
-                        remap.push(u64::MAX);
-                        l += 1;
-                    } else {
-                        out[w] = v.to_array();
-                        remap.push((start + w) as u64);
-                        w += 1;
-                    }
+                return Vec::new();
+            }
+            let mut remap = Vec::with_capacity(o.verts.len());
+            let (mut l, mut w) = (0, 0);
+            for (i, v) in o.verts.iter().enumerate() {
+                if l < link.len() && link[l].0 as usize == i {
+                    // Filled in below, once the slab before is numbered.
+                    remap.push(u64::MAX);
+                    l += 1;
+                } else {
+                    out[w] = v.to_array();
+                    remap.push((start + w) as u64);
+                    w += 1;
                 }
-                remap
-            })
-            .collect()
+            }
+            remap
+        })
     };
     for s in 1..n {
         let (done, rest) = remaps.split_at_mut(s);
@@ -128,21 +124,23 @@ pub(crate) fn assemble(
     // triangle would have no area and its edges would cancel in pairs, so
     // it is dropped below without opening the surface).
     let counts: Vec<usize> = outs.iter().map(|o| o.tris.len()).collect();
-    let mut triangles = zeroed::<[u64; 3]>(counts.iter().sum())?;
+    let mut triangles = zeroed::<[u64; 3]>(exec, counts.iter().sum())?;
     let mut levels = if n == 1 {
         std::mem::take(&mut outs[0].levels)
     } else {
-        zeroed::<u8>(triangles.len())?
+        zeroed::<u8>(exec, triangles.len())?
     };
     let tri_starts = offsets(&counts);
-    let found: Vec<(Vec<Candidate>, Vec<usize>)> = outs
-        .par_iter()
+    let items = outs
+        .iter()
         .zip(&remaps)
         .zip(&starts)
         .zip(split_mut(&mut triangles, &counts))
         .zip(split_mut(&mut levels, &counts))
         .zip(&tri_starts)
-        .map(|(((((o, r), &start), tri_out), level_out), &t0)| {
+        .collect();
+    let found: Vec<(Vec<Candidate>, Vec<usize>)> =
+        exec.map(items, |(((((o, r), &start), tri_out), level_out), &t0)| {
             let mut degenerate = Vec::new();
             for (w, t) in o.tris.iter().enumerate() {
                 let g = t.map(|v| global(r, start, v));
@@ -162,8 +160,7 @@ pub(crate) fn assemble(
                 level_out.copy_from_slice(&o.levels);
             }
             (cand, degenerate)
-        })
-        .collect();
+        });
     drop(remaps);
     if n == 1 {
         let verts = std::mem::take(&mut outs[0].verts);
@@ -182,17 +179,19 @@ pub(crate) fn assemble(
     // World coordinates.
     let mut points = Vec::new();
     reserve(&mut points, index_points.len())?;
-    points.par_extend(index_points.par_iter().map(|p| {
+    exec.extend(&mut points, &index_points, |p| {
         [
             volume.origin[0] + volume.spacing[0] * p[0],
             volume.origin[1] + volume.spacing[1] * p[1],
             volume.origin[2] + volume.spacing[2] * p[2],
         ]
-    }));
-    let (max, sum) = levels
-        .par_iter()
-        .map(|&l| (l, l as u64))
-        .reduce(|| (0, 0), |a, b| (a.0.max(b.0), a.1 + b.1));
+    });
+    let (max, sum) = exec
+        .map(levels.chunks(1 << 16).collect(), |c| {
+            c.iter().fold((0, 0), |(m, s), &l| (m.max(l), s + l as u64))
+        })
+        .into_iter()
+        .fold((0u8, 0u64), |a, b| (a.0.max(b.0), a.1 + b.1));
     stats.max_level = max as u32;
     stats.mean_level = if levels.is_empty() {
         0.0
@@ -375,12 +374,12 @@ fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
         .collect()
 }
 
-/// `n` default values, written in parallel; an error when the memory is
+/// `n` default values, written on `exec`; an error when the memory is
 /// not available.
-fn zeroed<T: Default + Clone + Send + Sync>(n: usize) -> Result<Vec<T>, Error> {
+fn zeroed<T: Default + Clone + Send + Sync>(exec: Exec<'_>, n: usize) -> Result<Vec<T>, Error> {
     let mut v = Vec::new();
     reserve(&mut v, n)?;
-    v.par_extend(rayon::iter::repeat_n(T::default(), n));
+    exec.fill_default(&mut v, n);
     Ok(v)
 }
 

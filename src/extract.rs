@@ -29,6 +29,7 @@ use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
+use crate::par::Exec;
 use crate::project::edge_crossing;
 use crate::refine::{
     faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
@@ -91,6 +92,9 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 ///
 /// `progress(fraction)` is called on the calling thread, first with 0.0,
 /// then about every 20 ms while workers run, and last with 1.0 on success.
+/// (Plain Marching Cubes of up to 4 Mi cells on one thread, a few
+/// milliseconds of work, runs on the calling thread with no call in
+/// between.)
 /// Returning `ControlFlow::Break(())` stops the extraction within a few
 /// milliseconds; it then returns [`Error::Aborted`].
 pub fn extract_with_progress(
@@ -216,6 +220,11 @@ pub const MAX_THREADS: usize = 4096;
 /// planes than it gains in balance.
 const MIN_CELLS_PER_SLAB: u64 = 1 << 18;
 
+/// With refinement off and one thread, the most cells an extraction runs
+/// on the calling thread without a pool (a few milliseconds of work: no
+/// progress is reported in between).
+const SERIAL_MAX_CELLS: u64 = 1 << 22;
+
 /// How many slabs (runs of cell layers along z) to cut `nz` layers of
 /// `cells` cells into for `threads` workers, with refinement off slabs of
 /// at least `min_cells` cells. The output does not depend on it.
@@ -262,46 +271,50 @@ fn run<T: Scalar>(
     let refine = options.refines();
     let nslabs = slab_count(nz, volume.cell_count(), threads, refine, min_slab_cells);
     let threads = threads.min(nslabs);
+    let mut run_on = |exec: Exec<'_>| {
+        let r = &mut reporter;
+        match options.reconstruction {
+            Reconstruction::Trilinear => {
+                let f = Trilinear::new(grid);
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r)
+            }
+            Reconstruction::CatmullRom => {
+                let f = Tricubic::<T, CatmullRomKernel>::new(grid);
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r)
+            }
+            Reconstruction::BSpline => {
+                let f = Tricubic::<T, BSplineKernel>::new(grid);
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r)
+            }
+            Reconstruction::BSplineInterpolating => {
+                let coefficients = prefilter(&grid)?;
+                let dims = grid.dims.map(|n| n as u64);
+                let cv =
+                    Volume::new(coefficients.as_slice(), dims).with_index_offset(grid.index_offset);
+                let f = Tricubic::<f64, BSplineKernel>::new(Grid::new(&coefficients, &cv));
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r)
+            }
+        }
+    };
+    // Plain Marching Cubes of a volume small enough to take a few
+    // milliseconds runs on the calling thread: a pool would cost more than
+    // it saves, and progress is reported only before and after.
+    if threads == 1 && !refine && volume.cell_count() <= SERIAL_MAX_CELLS {
+        return run_on(Exec::Serial);
+    }
     // A scoped pool: its threads are joined before the call returns, so no
     // thread outlives it (a host may unload the library right after).
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
-        .build_scoped(
-            |thread| thread.run(),
-            |pool| {
-                let r = &mut reporter;
-                match options.reconstruction {
-                    Reconstruction::Trilinear => {
-                        let f = Trilinear::new(grid);
-                        run_in_pool(pool, nslabs, grid, &f, volume, iso, options, r)
-                    }
-                    Reconstruction::CatmullRom => {
-                        let f = Tricubic::<T, CatmullRomKernel>::new(grid);
-                        run_in_pool(pool, nslabs, grid, &f, volume, iso, options, r)
-                    }
-                    Reconstruction::BSpline => {
-                        let f = Tricubic::<T, BSplineKernel>::new(grid);
-                        run_in_pool(pool, nslabs, grid, &f, volume, iso, options, r)
-                    }
-                    Reconstruction::BSplineInterpolating => {
-                        let coefficients = prefilter(&grid)?;
-                        let dims = grid.dims.map(|n| n as u64);
-                        let cv = Volume::new(coefficients.as_slice(), dims)
-                            .with_index_offset(grid.index_offset);
-                        let f = Tricubic::<f64, BSplineKernel>::new(Grid::new(&coefficients, &cv));
-                        run_in_pool(pool, nslabs, grid, &f, volume, iso, options, r)
-                    }
-                }
-            },
-        )
+        .build_scoped(|thread| thread.run(), |pool| run_on(Exec::Pool(pool)))
         .map_err(|e| Error::ThreadPool(e.to_string()))?
 }
 
-/// One extraction in `pool`: Marching Cubes on `grid`'s samples, then
+/// One extraction on `exec`: Marching Cubes on `grid`'s samples, then
 /// refinement onto the isosurface of `filter`.
 #[allow(clippy::too_many_arguments)]
-fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
-    pool: &rayon::ThreadPool,
+fn run_with<T: Scalar, F: ReconstructionFilter>(
+    exec: Exec<'_>,
     nslabs: usize,
     grid: Grid<'_, T>,
     filter: &F,
@@ -355,6 +368,16 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
                 layers_done: &layers_done,
                 scratch: &scratch,
             };
+            let pool = match exec {
+                Exec::Serial => {
+                    let outs: Vec<SlabOut> = slabs
+                        .iter()
+                        .map(|&(k0, k1)| process_slab(&shared, k0, k1, mode))
+                        .collect();
+                    return finish_pass(outs, &cancel);
+                }
+                Exec::Pool(pool) => pool,
+            };
             let (tx, rx) = std::sync::mpsc::channel();
             // The work goes to the pool while this thread reports progress
             // (no thread of its own: starting one costs more than
@@ -386,13 +409,7 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
                     }
                 }
             });
-            if cancel.load(Ordering::Relaxed) {
-                return Err(Error::Aborted);
-            }
-            if let Some(o) = outs.iter().find(|o| o.scratch_failed > 0) {
-                return Err(Error::OutOfMemory(o.scratch_failed));
-            }
-            Ok(outs)
+            finish_pass(outs, &cancel)
         };
 
     let mut max_level = if refine { options.max_level } else { 0 };
@@ -453,7 +470,7 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
 
     let t_asm = Instant::now();
     let passes_wall = (t_asm - start).as_secs_f64();
-    let mut mesh = pool.install(|| assemble(outs, volume, passes_wall, &mut stats))?;
+    let mut mesh = assemble(outs, volume, passes_wall, &mut stats, exec)?;
     stats.time_assemble = t_asm.elapsed().as_secs_f64();
     if !reporter.report(0.97) {
         return Err(Error::Aborted);
@@ -466,7 +483,7 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
         volume,
         &mesh.index_points,
         options.normals,
-        pool,
+        exec,
     )?;
     stats.time_normals = t_n.elapsed().as_secs_f64();
     stats.time_total = start.elapsed().as_secs_f64();
@@ -477,6 +494,18 @@ fn run_in_pool<T: Scalar, F: ReconstructionFilter>(
         return Err(Error::Aborted);
     }
     Ok(mesh)
+}
+
+/// A pass's slab outputs, or why the pass failed (cancelled, or a slab's
+/// scratch memory not available).
+fn finish_pass(outs: Vec<SlabOut>, cancel: &AtomicBool) -> Result<Vec<SlabOut>, Error> {
+    if cancel.load(Ordering::Relaxed) {
+        return Err(Error::Aborted);
+    }
+    if let Some(o) = outs.iter().find(|o| o.scratch_failed > 0) {
+        return Err(Error::OutOfMemory(o.scratch_failed));
+    }
+    Ok(outs)
 }
 
 /// Marching Cubes (and refinement) on cell layers `k0..k1`.

@@ -59,6 +59,7 @@ mod layers;
 mod memory;
 mod nearest;
 mod normals;
+mod par;
 mod refine;
 
 pub use error::Error;

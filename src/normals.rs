@@ -1,11 +1,11 @@
 //! Point normals: exact trilinear gradients or VTK-style central differences.
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use crate::filter::{trilinear_gradient, Trilinear};
 use crate::memory::reserve;
 use crate::options::NormalMode;
+use crate::par::Exec;
 use crate::volume::{Scalar, Volume};
 use crate::Error;
 
@@ -48,7 +48,7 @@ pub(crate) fn compute_normals<T: Scalar>(
     volume: &Volume<'_>,
     index_points: &[[f64; 3]],
     mode: NormalMode,
-    pool: &rayon::ThreadPool,
+    exec: Exec<'_>,
 ) -> Result<Vec<[f32; 3]>, Error> {
     let mut normals = Vec::new();
     if mode == NormalMode::None {
@@ -61,14 +61,12 @@ pub(crate) fn compute_normals<T: Scalar>(
     let spacing = volume.spacing;
     match mode {
         NormalMode::None => {}
-        NormalMode::Gradient => pool.install(|| {
-            normals.par_extend(index_points.par_iter().map(|p| {
-                let (c, l) = locate(DVec3::from_array(*p), dims, off);
-                let v = filter.corners(c);
-                finish(trilinear_gradient(&v, l), spacing)
-            }))
+        NormalMode::Gradient => exec.extend(&mut normals, index_points, |p| {
+            let (c, l) = locate(DVec3::from_array(*p), dims, off);
+            let v = filter.corners(c);
+            finish(trilinear_gradient(&v, l), spacing)
         }),
-        NormalMode::CentralDifference => pool.install(|| {
+        NormalMode::CentralDifference => {
             let grad = |i: usize, j: usize, k: usize| -> DVec3 {
                 let idx = [i, j, k];
                 let mut out = DVec3::ZERO;
@@ -90,7 +88,7 @@ pub(crate) fn compute_normals<T: Scalar>(
                 }
                 out
             };
-            normals.par_extend(index_points.par_iter().map(|p| {
+            exec.extend(&mut normals, index_points, |p| {
                 let (c, l) = locate(DVec3::from_array(*p), dims, off);
                 let mut n = DVec3::ZERO;
                 for (q, cc) in crate::tables::cube::CORNERS.iter().enumerate() {
@@ -105,8 +103,8 @@ pub(crate) fn compute_normals<T: Scalar>(
                     ) * w;
                 }
                 finish(n, spacing)
-            }))
-        }),
+            })
+        }
     }
     Ok(normals)
 }
