@@ -327,15 +327,15 @@ fn edge_root(f: &impl Fn(DVec3) -> f64, b: &Cube, p: DVec3) -> Option<DVec3> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::filter::{trilinear_value, Trilinear};
 
     type Tri = Trilinear<'static, f64>;
 
     /// A seeded stream of uniform numbers in [0, 1) (a linear
-    /// congruential generator).
-    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    /// congruential generator; the refinement tests use it too).
+    pub(crate) fn uniform(seed: u64) -> impl FnMut() -> f64 {
         let mut x = seed;
         move || {
             x = x

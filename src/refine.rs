@@ -801,18 +801,9 @@ mod tests {
     use super::*;
     use crate::filter::{trilinear_value, Trilinear};
 
-    type Tri = Trilinear<'static, f64>;
+    use crate::nearest::tests::uniform;
 
-    /// A seeded stream of uniform numbers in [0, 1).
-    fn uniform(seed: u64) -> impl FnMut() -> f64 {
-        let mut x = seed;
-        move || {
-            x = x
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (x >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
+    type Tri = Trilinear<'static, f64>;
 
     /// A random cell (isovalue 0) and a random edge between two points of
     /// `S_K` on its grid edges, as Marching Cubes makes them.
