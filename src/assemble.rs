@@ -10,6 +10,8 @@
 
 use std::time::Duration;
 
+use glam::DVec3;
+
 use crate::extract::{key, KeyMap, SlabOut};
 use crate::memory::reserve;
 use crate::mesh::{Mesh, Stats};
@@ -17,7 +19,6 @@ use crate::par::Exec;
 use crate::refine::Counters;
 use crate::volume::Volume;
 use crate::Error;
-use glam::DVec3;
 
 /// Welds the slabs' outputs (in slab order) into a mesh and fills the
 /// statistics they carry; splits `passes_wall` (seconds) into the Marching

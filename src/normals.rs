@@ -91,11 +91,10 @@ pub(crate) fn compute_normals<T: Scalar>(
             exec.extend(&mut normals, index_points, |p| {
                 let (c, l) = locate(DVec3::from_array(*p), dims, off);
                 let mut n = DVec3::ZERO;
-                for (q, cc) in crate::tables::cube::CORNERS.iter().enumerate() {
+                for cc in crate::tables::cube::CORNERS.iter() {
                     let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
                         * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
                         * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
-                    let _ = q;
                     n += grad(
                         c[0] + cc[0] as usize,
                         c[1] + cc[1] as usize,

@@ -381,13 +381,17 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
     if ((q - m).dot(e)).abs() <= 0.25 * e.length_squared() {
         return s;
     }
-    let longer = |x: DVec3| (x - a).length().max((b - x).length());
     if let Some(r) = bisector_root::<F>(cell, iso, m, e) {
-        if longer(r) < longer(q) {
+        if longer_child(a, b, r) < longer_child(a, b, q) {
             s.split = Some(r);
         }
     }
     s
+}
+
+/// The length of the longer of the two children of edge `a b` split at `x`.
+fn longer_child(a: DVec3, b: DVec3, x: DVec3) -> f64 {
+    (x - a).length().max((b - x).length())
 }
 
 /// Steps of the grid over the bisecting plane (see [`bisector_root`]).
@@ -418,8 +422,8 @@ fn bisector_root<F: ReconstructionFilter>(
     }
     // The plane's part in the cell lies within the cell corners' shadow.
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for c in 0..8 {
-        let corner = DVec3::new((c & 1) as f64, ((c >> 1) & 1) as f64, (c >> 2) as f64);
+    for c in crate::tables::cube::CORNERS {
+        let corner = DVec3::new(c[0] as f64, c[1] as f64, c[2] as f64);
         let st = [(corner - m).dot(u), (corner - m).dot(v)];
         for i in 0..2 {
             lo[i] = lo[i].min(st[i]);
@@ -831,11 +835,6 @@ mod tests {
         Some((c, crossings[i], crossings[j]))
     }
 
-    /// The longer of the two children of edge `a b` split at `x`.
-    fn longer(a: DVec3, b: DVec3, x: DVec3) -> f64 {
-        (x - a).length().max((x - b).length())
-    }
-
     #[test]
     fn edge_decisions_do_not_depend_on_the_order_of_the_ends() {
         // Both triangles on an edge (and both cells on a face) must split
@@ -891,7 +890,7 @@ mod tests {
             }
             across += 1;
             assert!(trilinear_value(&c, r).abs() < 1e-9, "{r} off S_K");
-            assert!(longer(a, b, r) < longer(a, b, q));
+            assert!(longer_child(a, b, r) < longer_child(a, b, q));
             assert!(r.cmpgt(DVec3::ZERO).all() && r.cmplt(DVec3::ONE).all());
         }
         assert!(
