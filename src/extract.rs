@@ -740,8 +740,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 pos_of.clear();
                 let mc_start = out.tris.len();
                 for tri in &patch.tris {
-                    let mut tid = [0u32; 3];
-                    for (slot, &e) in tri.iter().enumerate() {
+                    for &e in tri {
                         let e = e as usize;
                         if ids[e] == u32::MAX && e >= 12 {
                             // An interior point of an ambiguous cell.
@@ -782,7 +781,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                 if REFINE {
                                     loc[e] = out.verts[id as usize] - cell_f;
                                 }
-                                tid[slot] = id;
                                 continue;
                             }
                             let (sa, sb) = (c[a as usize], c[b as usize]);
@@ -833,8 +831,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                 ids[e] = id;
                             }
                         }
-                        tid[slot] = ids[e];
                     }
+                    // Gathered from `ids` once the three are known:
+                    // filling an array lane by lane and then copying it
+                    // whole stalled store forwarding (a profile hot spot).
+                    let tid = tri.map(|e| ids[e as usize]);
                     if count_only {
                         // Degeneracy by position when ids are not welded.
                         let p = [
