@@ -360,8 +360,9 @@ mod tests {
                     .iter()
                     .any(|u| (0..3).any(|g| u[g] == b && u[(g + 1) % 3] == a));
                 if twin {
-                    let m = (crossing(f, a) + crossing(f, b)) * 0.5;
-                    n += sample::<Filter>(f, 0.0, m, 0, 1e-3, true).stuck as usize;
+                    let (pa, pb) = (crossing(f, a), crossing(f, b));
+                    let (m, reach) = ((pa + pb) * 0.5, (pb - pa).length());
+                    n += sample::<Filter>(f, 0.0, m, 0, 1e-3, true, reach).stuck as usize;
                 }
             }
         }

@@ -296,7 +296,14 @@ pub(crate) struct Sample {
 /// neighbour's patch has its outline.
 pub(crate) const FACE_BAND: f64 = 1.0 / 256.0;
 
-/// Tests the sample point `p` (see [`Sample`]).
+/// Tests the sample point `p` (see [`Sample`]). No split point is taken
+/// farther than `reach` from `p` (local units: the length of the edge
+/// sampled, or the longest edge of the triangle): such a point lies on
+/// another sheet of `S_K` in the cell, and a split there would stretch
+/// triangles across the cell. (Where the sheet near `p` hugs a face, the
+/// gradient line can cross the cell to a cap around the opposite corner;
+/// the line then counts as failed. The nearest point off the band along
+/// the faces can lie on such a cap too; the sample is then stuck.)
 pub(crate) fn sample<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
@@ -304,6 +311,7 @@ pub(crate) fn sample<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
     fallback: bool,
+    reach: f64,
 ) -> Sample {
     let mut s = Sample {
         split: None,
@@ -311,16 +319,23 @@ pub(crate) fn sample<F: ReconstructionFilter>(
         by_nearest: false,
         stuck: false,
     };
+    let within = |q: DVec3| (q - p).length_squared() <= reach * reach;
     match test::<F>(cell, iso, p, fixed, epsilon) {
-        Test::Failed => {
-            // The gradient line left the cell: the nearest point of
-            // `S_K` in the cell (face) decides instead.
+        Test::Far(q) if within(q) => s.split = Some(q),
+        Test::Failed | Test::Far(_) => {
+            // The gradient line left the cell, or crossed it to another
+            // sheet of `S_K`: the nearest point of `S_K` in the cell
+            // (face) decides instead.
             s.failed = true;
             if fixed == 0 && fallback {
                 match nearest::<F>(cell, iso, p, epsilon) {
                     Test::Far(q) if q.cmpgt(DVec3::ZERO).all() && q.cmplt(DVec3::ONE).all() => {
-                        s.split = Some(q);
-                        s.by_nearest = true;
+                        if within(q) {
+                            s.split = Some(q);
+                            s.by_nearest = true;
+                        } else {
+                            s.stuck = true;
+                        }
                     }
                     Test::Near => {}
                     _ => {
@@ -329,16 +344,17 @@ pub(crate) fn sample<F: ReconstructionFilter>(
                         // inside): the best point strictly inside is the
                         // nearest one off the band along the faces.
                         s.stuck = true;
-                        if let Test::Far(q) = nearest_within::<F>(cell, iso, p, epsilon, FACE_BAND)
-                        {
-                            s.split = Some(q);
-                            s.by_nearest = true;
+                        match nearest_within::<F>(cell, iso, p, epsilon, FACE_BAND) {
+                            Test::Far(q) if within(q) => {
+                                s.split = Some(q);
+                                s.by_nearest = true;
+                            }
+                            _ => {}
                         }
                     }
                 }
             }
         }
-        Test::Far(q) => s.split = Some(q),
         Test::Near => {}
     }
     s
@@ -368,7 +384,7 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
     fallback: bool,
 ) -> Sample {
     let m = (a + b) * 0.5;
-    let mut s = sample::<F>(cell, iso, m, fixed, epsilon, fallback);
+    let mut s = sample::<F>(cell, iso, m, fixed, epsilon, fallback, (b - a).length());
     let (Some(q), true, 0) = (s.split, s.failed, fixed) else {
         return s;
     };
@@ -382,7 +398,9 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
         return s;
     }
     if let Some(r) = bisector_root::<F>(cell, iso, m, e) {
-        if longer_child(a, b, r) < longer_child(a, b, q) {
+        if longer_child(a, b, r) < longer_child(a, b, q)
+            && (r - m).length_squared() <= e.length_squared()
+        {
             s.split = Some(r);
         }
     }
@@ -482,8 +500,9 @@ pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
 }
 
 impl<F: ReconstructionFilter> Refiner<'_, F> {
-    /// Tests one sample point; returns the relocated point if it must split.
-    fn test(&mut self, p: DVec3, fixed: u8) -> Option<DVec3> {
+    /// Tests one sample point of a triangle whose longest edge is `reach`
+    /// long; returns the relocated point if it must split.
+    fn test(&mut self, p: DVec3, fixed: u8, reach: f64) -> Option<DVec3> {
         let s = sample::<F>(
             self.cell,
             self.iso,
@@ -491,6 +510,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             fixed,
             self.epsilon,
             self.interior_fallback,
+            reach,
         );
         self.count(&s);
         s.split
@@ -612,17 +632,21 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let splits = |e: usize| split & (1 << e) != 0;
             let nsplit = split.count_ones() as usize;
             let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+            let longest = (0..3)
+                .map(|e| (t.p[(e + 1) % 3] - t.p[e]).length_squared())
+                .fold(0.0, f64::max)
+                .sqrt();
             let centre = match self.rule {
                 _ if !self.refinable.interior => None,
                 Rule::A => None,
                 Rule::A1 => {
                     if nsplit == 0 {
-                        self.test(centroid, 0)
+                        self.test(centroid, 0, longest)
                     } else {
                         None
                     }
                 }
-                Rule::B => self.test(centroid, 0),
+                Rule::B => self.test(centroid, 0, longest),
                 Rule::A2 => {
                     let mut shift = DVec3::ZERO;
                     for e in 0..3 {
@@ -634,7 +658,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                         shift /= nsplit as f64;
                     }
                     let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
-                    self.test(cand, 0)
+                    self.test(cand, 0, longest)
                 }
             };
             if nsplit == 0 && centre.is_none() {
@@ -853,7 +877,7 @@ mod tests {
                 ba.split.map(|p| p.to_array().map(f64::to_bits)),
                 "edge {a} {b} of {c:?}"
             );
-            let plain = sample::<Tri>(&c, 0.0, (a + b) * 0.5, fixed, 1e-3, true);
+            let plain = sample::<Tri>(&c, 0.0, (a + b) * 0.5, fixed, 1e-3, true, (b - a).length());
             across += (plain.split != ab.split) as u32;
         }
         assert!(across > 50, "only {across} edges split across");
@@ -873,7 +897,7 @@ mod tests {
             };
             let fixed = shared_fixed_axes(a, b);
             let m = (a + b) * 0.5;
-            let plain = sample::<Tri>(&c, 0.0, m, fixed, 1e-3, true);
+            let plain = sample::<Tri>(&c, 0.0, m, fixed, 1e-3, true, (b - a).length());
             let chosen = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
             assert_eq!(plain.split.is_some(), chosen.split.is_some());
             let (Some(q), Some(r)) = (plain.split, chosen.split) else {
@@ -897,5 +921,49 @@ mod tests {
             along > 30 && across > 10,
             "{along} split far along, {across} re-placed"
         );
+    }
+
+    #[test]
+    fn split_points_stay_within_reach_of_their_sample() {
+        // Cell (33, 59, 2) of the EPI scan of the benchmark (less its
+        // isovalue): one sheet of S_K hugs face x = 0, another caps corner
+        // (1, 1, 0). The gradient line from a sample by the first crosses
+        // the cell to the cap; splitting there stretched four triangles
+        // 0.46 cells off S_K at every level.
+        let c = [9.9, -43.1, 18.9, -245.1, 14.9, -130.1, -46.1, 22.9];
+        let p = DVec3::new(0.001, 0.180, 0.683);
+        let Test::Far(q) = test::<Tri>(&c, 0.0, p, 0, 1e-3) else {
+            panic!("the line from {p} should find the far sheet");
+        };
+        assert!((q - p).length() > 1.0, "{q}");
+        let s = sample::<Tri>(&c, 0.0, p, 0, 1e-3, true, 0.1);
+        assert!(s.failed);
+        assert!(s.split.is_none_or(|r| (r - p).length() <= 0.1));
+
+        // Random cells: edges as Marching Cubes makes them, and interior
+        // points with random reaches; no split point lies farther than the
+        // reach, and some would have without it.
+        let mut rnd = uniform(77);
+        let mut beyond = 0;
+        for _ in 0..20000 {
+            let Some((c, a, b)) = random_edge(&mut rnd) else {
+                continue;
+            };
+            let fixed = shared_fixed_axes(a, b);
+            let s = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
+            let reach = (b - a).length();
+            if let Some(r) = s.split {
+                assert!((r - (a + b) * 0.5).length() <= reach, "{a} {b} -> {r}");
+            }
+            let p = DVec3::new(rnd(), rnd(), rnd());
+            let reach = 0.05 + rnd();
+            let s = sample::<Tri>(&c, 0.0, p, 0, 1e-3, true, reach);
+            if let Some(r) = s.split {
+                assert!((r - p).length() <= reach, "{p} -> {r}, reach {reach}");
+            }
+            let unbounded = sample::<Tri>(&c, 0.0, p, 0, 1e-3, true, f64::INFINITY);
+            beyond += unbounded.split.is_some_and(|r| (r - p).length() > reach) as u32;
+        }
+        assert!(beyond > 100, "only {beyond} split points beyond reach");
     }
 }

@@ -11,7 +11,10 @@
 //!   the cell patch's boundary is projected within its face, as the
 //!   library does; a sample whose gradient line finds no root in the cell
 //!   is decided by the nearest-point fallback, which is not checked here:
-//!   `thin_features_refine_where_gradient_lines_miss` measures its effect).
+//!   `thin_features_refine_where_gradient_lines_miss` measures its effect;
+//!   nor is a sample whose projection lies farther away than its edge, or
+//!   for the centroid the triangle's longest edge: such a point lies on
+//!   another sheet of S_K, and the library does not split there).
 //! * The distance of the mesh to S_K shrinks as epsilon shrinks, measured
 //!   by the first-order distance |F - iso| / |grad F| at the midpoints and
 //!   centroids of all output triangles (independent of `project`).
@@ -149,7 +152,13 @@ fn check_unsplit(
                 let p = pts[v as usize];
                 DVec3::new(p[0] - cf[0], p[1] - cf[1], p[2] - cf[2])
             });
-            let mut samples: Vec<(DVec3, u8)> = Vec::new();
+            // A split point farther from its sample than the edge (or, for
+            // the centre, the longest edge) is not taken: it lies on
+            // another sheet of S_K.
+            let mut samples: Vec<(DVec3, u8, f64)> = Vec::new();
+            let longest = (0..3)
+                .map(|e| (local[(e + 1) % 3] - local[e]).length())
+                .fold(0.0, f64::max);
             for e in 0..3 {
                 let (a, b) = (t[e], t[(e + 1) % 3]);
                 let (pa, pb) = (local[e], local[(e + 1) % 3]);
@@ -161,15 +170,15 @@ fn check_unsplit(
                         }
                     }
                 }
-                samples.push(((pa + pb) * 0.5, fixed));
+                samples.push(((pa + pb) * 0.5, fixed, (pb - pa).length()));
             }
             if rule != Rule::A {
-                samples.push(((local[0] + local[1] + local[2]) / 3.0, 0));
+                samples.push(((local[0] + local[1] + local[2]) / 3.0, 0, longest));
             }
-            for (s, fixed) in samples {
+            for (s, fixed, reach) in samples {
                 checked += 1;
                 if let Some(pr) = project::<Filter>(&corners, 0.0, s, fixed) {
-                    if pr.distance > eps * (1.0 + 1e-9) + 1e-12 {
+                    if pr.distance > eps * (1.0 + 1e-9) + 1e-12 && pr.distance <= reach {
                         let msg = format!(
                             "cell {cell:?} level {} sample {s:?} (fixed {fixed}) is {} from S_K",
                             mesh.levels[n], pr.distance
