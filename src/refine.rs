@@ -859,17 +859,22 @@ mod tests {
         Some((c, crossings[i], crossings[j]))
     }
 
+    /// The edges [`random_edge`] makes from `tries` random cells of the
+    /// seeded stream, each with the cell and its fixed axes.
+    fn random_edges(seed: u64, tries: usize) -> Vec<([f64; 8], DVec3, DVec3, u8)> {
+        let mut rnd = uniform(seed);
+        (0..tries)
+            .filter_map(|_| random_edge(&mut rnd))
+            .map(|(c, a, b)| (c, a, b, shared_fixed_axes(a, b)))
+            .collect()
+    }
+
     #[test]
     fn edge_decisions_do_not_depend_on_the_order_of_the_ends() {
         // Both triangles on an edge (and both cells on a face) must split
         // it at the same point, bit for bit, or the mesh cracks.
-        let mut rnd = uniform(99);
         let mut across = 0;
-        for _ in 0..12000 {
-            let Some((c, a, b)) = random_edge(&mut rnd) else {
-                continue;
-            };
-            let fixed = shared_fixed_axes(a, b);
+        for (c, a, b, fixed) in random_edges(99, 12000) {
             let ab = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
             let ba = sample_edge::<Tri>(&c, 0.0, b, a, fixed, 1e-3, true);
             assert_eq!(
@@ -889,13 +894,8 @@ mod tests {
         // point of S_K lies far along the edge: the point chosen instead
         // lies on S_K, strictly inside the cell, and leaves a shorter
         // longer child. Every other decision is the plain one.
-        let mut rnd = uniform(2024);
         let (mut along, mut across) = (0, 0);
-        for _ in 0..20000 {
-            let Some((c, a, b)) = random_edge(&mut rnd) else {
-                continue;
-            };
-            let fixed = shared_fixed_axes(a, b);
+        for (c, a, b, fixed) in random_edges(2024, 20000) {
             let m = (a + b) * 0.5;
             let plain = sample::<Tri>(&c, 0.0, m, fixed, 1e-3, true, (b - a).length());
             let chosen = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
@@ -943,13 +943,9 @@ mod tests {
         // Random cells: edges as Marching Cubes makes them, and interior
         // points with random reaches; no split point lies farther than the
         // reach, and some would have without it.
-        let mut rnd = uniform(77);
+        let mut rnd = uniform(78);
         let mut beyond = 0;
-        for _ in 0..20000 {
-            let Some((c, a, b)) = random_edge(&mut rnd) else {
-                continue;
-            };
-            let fixed = shared_fixed_axes(a, b);
+        for (c, a, b, fixed) in random_edges(77, 20000) {
             let s = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
             let reach = (b - a).length();
             if let Some(r) = s.split {
