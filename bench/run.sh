@@ -2,8 +2,8 @@
 # Benchmarks and accuracy report: PreciseMC against vtkMarchingCubes,
 # vtkFlyingEdges3D and "upsample then contour" (bench/compare.py).
 #
-#   bash bench/run.sh            # full run, ~4 min on 2 cores -> bench/results/
-#   bash bench/run.sh --quick    # ~1 min, small volumes -> bench/results-quick/
+#   bash bench/run.sh            # full run, ~12 min on 2 cores -> bench/results/
+#   bash bench/run.sh --quick    # ~1.5 min, small volumes -> bench/results-quick/
 #
 # Builds build/core and build/vtk first (incrementally, pmc_build_vtk), installs
 # python3-matplotlib from Debian if missing, and fetches the real volume (a
