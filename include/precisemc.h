@@ -418,8 +418,9 @@ typedef struct pmc_stats {
     uint64_t split_points;
     /**
      * Sample points whose gradient line left the cell without meeting the
-     * ideal surface (interior ones are then decided by the nearest point of
-     * the surface in the cell).
+     * ideal surface, or met it farther away than the edge (triangle)
+     * sampled, on another sheet (interior ones are then decided by the
+     * nearest point of the surface in the cell).
      */
     uint64_t projection_failures;
     /**

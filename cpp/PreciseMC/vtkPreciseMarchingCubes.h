@@ -423,7 +423,8 @@ public:
    * - NumberOfSamplesEvaluated / NumberOfSplitPoints: sample points tested
    *   and inserted.
    * - NumberOfProjectionFailures: sample points for which no point of the
-   *   isosurface was found along the gradient line.
+   *   isosurface was found along the gradient line within the cell, or
+   *   only one farther away than the edge (triangle) sampled.
    * - NumberOfFacesAboveEpsilon: triangles at MaxLevel still farther than
    *   Epsilon at a sample point.
    * - NumberOfCellsRefinedOnFacesOnly: cells whose refined patch was

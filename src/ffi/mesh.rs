@@ -65,8 +65,9 @@ pub struct pmc_stats {
     /// Sample points that were inserted as split points.
     pub split_points: u64,
     /// Sample points whose gradient line left the cell without meeting the
-    /// ideal surface (interior ones are then decided by the nearest point of
-    /// the surface in the cell).
+    /// ideal surface, or met it farther away than the edge (triangle)
+    /// sampled, on another sheet (interior ones are then decided by the
+    /// nearest point of the surface in the cell).
     pub projection_failures: u64,
     /// Output triangles at the maximum level that still had a sample point
     /// farther than epsilon.
