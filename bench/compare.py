@@ -399,14 +399,16 @@ def max_candidates(pm, u):
                   key=lambda r: r["tris"])
 
 
+def holds(r, u):
+    """Whether run r's max over all triangles is known and within u's."""
+    m = full_max(r)
+    return m is not None and m <= u["dist"]["max"]
+
+
 def reaching_max(pm, u):
     """The run with the fewest triangles whose max over all triangles is
     within the upsampled surface's, among the candidates verified."""
-    for r in max_candidates(pm, u)[:VERIFY_TRIES]:
-        m = full_max(r)
-        if m is not None and m <= u["dist"]["max"]:
-            return r
-    return None
+    return next((r for r in max_candidates(pm, u)[:VERIFY_TRIES] if holds(r, u)), None)
 
 
 def verify_maxima(results, env):
@@ -432,8 +434,7 @@ def verify_maxima(results, env):
                           f"{r['tris']:,} triangles: "
                           + (f"{v['dist']['max']:.4f}" if "dist" in v else
                              f"error: {v.get('error')}"), flush=True)
-                m = full_max(r)
-                if m is not None and m <= u["dist"]["max"]:
+                if holds(r, u):
                     break
 
 

@@ -632,21 +632,24 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let splits = |e: usize| split & (1 << e) != 0;
             let nsplit = split.count_ones() as usize;
             let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
-            let longest = (0..3)
-                .map(|e| (t.p[(e + 1) % 3] - t.p[e]).length_squared())
-                .fold(0.0, f64::max)
-                .sqrt();
+            // Only for a centre that is tested (not on Rule A's path).
+            let longest = || {
+                (0..3)
+                    .map(|e| (t.p[(e + 1) % 3] - t.p[e]).length_squared())
+                    .fold(0.0, f64::max)
+                    .sqrt()
+            };
             let centre = match self.rule {
                 _ if !self.refinable.interior => None,
                 Rule::A => None,
                 Rule::A1 => {
                     if nsplit == 0 {
-                        self.test(centroid, 0, longest)
+                        self.test(centroid, 0, longest())
                     } else {
                         None
                     }
                 }
-                Rule::B => self.test(centroid, 0, longest),
+                Rule::B => self.test(centroid, 0, longest()),
                 Rule::A2 => {
                     let mut shift = DVec3::ZERO;
                     for e in 0..3 {
@@ -658,7 +661,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                         shift /= nsplit as f64;
                     }
                     let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
-                    self.test(cand, 0, longest)
+                    self.test(cand, 0, longest())
                 }
             };
             if nsplit == 0 && centre.is_none() {
