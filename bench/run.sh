@@ -2,7 +2,7 @@
 # Benchmarks and accuracy report: PreciseMC against vtkMarchingCubes,
 # vtkFlyingEdges3D and "upsample then contour" (bench/compare.py).
 #
-#   bash bench/run.sh            # full run, ~12 min on 2 cores -> bench/results/
+#   bash bench/run.sh            # full run, ~14 min on 2 cores -> bench/results/
 #   bash bench/run.sh --quick    # ~1.5 min, small volumes -> bench/results-quick/
 #
 # Builds build/core and build/vtk first (incrementally, pmc_build_vtk), installs

@@ -32,7 +32,7 @@ stage "doc tests" cargo test --doc
 stage "C API" bash tests/c/run.sh
 stage "VTK filter" bash tests/vtk/run.sh
 stage "command-line tool" bash tests/cli/run.sh
-# bench/run.sh --quick: every configuration of the benchmark runs (about 75 s).
+# bench/run.sh --quick: every configuration of the benchmark runs (about 90 s).
 stage "benchmark smoke" bash bench/run.sh --quick
 # Short libFuzzer run of each target (25 s each; fuzz/run.sh SECONDS for longer).
 stage "fuzz (short)" bash fuzz/run.sh 25
