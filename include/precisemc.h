@@ -282,8 +282,9 @@ typedef uint32_t pmc_reconstruction;
  * points towards lower sample values, as in `vtkMarchingCubes`.
  *
  * Arrays returned by the accessors are owned by the mesh: valid until
- * `pmc_mesh_free`, read-only, and `NULL` when empty. A mesh is immutable,
- * so any number of threads may read it concurrently.
+ * `pmc_mesh_free`, read-only, and `NULL` when empty. Apart from
+ * `pmc_mesh_take_triangles`, no call changes a mesh, so any number of
+ * threads may read it concurrently.
  */
 typedef struct pmc_mesh pmc_mesh;
 
@@ -486,6 +487,20 @@ extern "C" {
 #endif // __cplusplus
 
 /**
+ * Releases an array obtained from `pmc_mesh_take_triangles`. `NULL` is
+ * accepted and ignored, and so is an address this library did not hand
+ * out (or already released). Thread-safe. Its signature is that of a C
+ * `free`, so that it can be given as the free function of an array that
+ * adopts the buffer (VTK: `SetArray(..., VTK_DATA_ARRAY_USER_DEFINED)`
+ * then `SetArrayFreeFunction(pmc_buffer_free)`).
+ *
+ * # Safety
+ *
+ * `buffer` must be `NULL` or not used after this call.
+ */
+void pmc_buffer_free(void *buffer);
+
+/**
  * Copies the message of the calling thread's most recent failure into
  * `buf` and returns its full length in bytes, excluding the terminating
  * NUL.
@@ -595,7 +610,11 @@ uint64_t pmc_mesh_triangle_count(const struct pmc_mesh *mesh);
 
 /**
  * Point positions in world coordinates: `3 * pmc_mesh_point_count`
- * doubles, x, y, z per point. `NULL` for a `NULL` or empty mesh.
+ * doubles, x, y, z per point, `origin + spacing * index point` per axis
+ * (bit-identical to the core's `Mesh::points`). Computed on the first
+ * call (24 bytes a point; thread-safe), so a caller that maps
+ * `pmc_mesh_index_points` itself never pays for them. `NULL` for a
+ * `NULL` or empty mesh, and if their memory cannot be allocated.
  *
  * # Safety
  *
@@ -624,6 +643,27 @@ const double *pmc_mesh_index_points(const struct pmc_mesh *mesh);
  * `mesh` must be `NULL` or a live handle from `pmc_extract`.
  */
 const int64_t *pmc_mesh_triangles(const struct pmc_mesh *mesh);
+
+/**
+ * Moves the triangles out of `mesh` to the caller, without a copy (to be
+ * adopted, say, as the connectivity of a `vtkCellArray`): returns the
+ * array `pmc_mesh_triangles` returned, `3 * n` point indices, and stores
+ * `n` in `*out_count` (when `out_count` is not `NULL`). The caller owns
+ * the array and releases it with `pmc_buffer_free`. Afterwards the mesh
+ * has no triangles (`pmc_mesh_triangles` gives `NULL` and
+ * `pmc_mesh_triangle_count` 0); its points, per-triangle levels (still
+ * `n` bytes) and statistics stay. Returns `NULL` (and 0) for a `NULL`
+ * mesh or one without triangles.
+ *
+ * The one call that changes a mesh: it must not run concurrently with
+ * other calls on the same mesh.
+ *
+ * # Safety
+ *
+ * `mesh` must be `NULL` or a live handle from `pmc_extract`, not used by
+ * another thread during the call; `out_count` must be `NULL` or writable.
+ */
+int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
 
 /**
  * Unit normals per point, pointing towards lower sample values:

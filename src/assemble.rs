@@ -22,13 +22,15 @@ use crate::Error;
 
 /// Welds the slabs' outputs (in slab order) into a mesh and fills the
 /// statistics they carry; splits `passes_wall` (seconds) into the Marching
-/// Cubes and refinement times. The parallel steps run on `exec`.
+/// Cubes and refinement times. The parallel steps run on `exec`. World
+/// coordinates only if `world_points`.
 pub(crate) fn assemble(
     mut outs: Vec<SlabOut>,
     volume: &Volume<'_>,
     passes_wall: f64,
     stats: &mut Stats,
     exec: Exec<'_>,
+    world_points: bool,
 ) -> Result<Mesh, Error> {
     sum_counters(&outs, passes_wall, stats);
     let n = outs.len();
@@ -179,14 +181,10 @@ pub(crate) fn assemble(
 
     // World coordinates.
     let mut points = Vec::new();
-    reserve(&mut points, index_points.len())?;
-    exec.extend(&mut points, &index_points, |p| {
-        [
-            volume.origin[0] + volume.spacing[0] * p[0],
-            volume.origin[1] + volume.spacing[1] * p[1],
-            volume.origin[2] + volume.spacing[2] * p[2],
-        ]
-    });
+    if world_points {
+        reserve(&mut points, index_points.len())?;
+        exec.extend(&mut points, &index_points, |p| volume.world_point(*p));
+    }
     let (max, sum) = exec
         .map(levels.chunks(1 << 16).collect(), |c| {
             c.iter().fold((0, 0), |(m, s), &l| (m.max(l), s + l as u64))

@@ -141,6 +141,17 @@ pub struct Volume<'a> {
     pub spacing: [f64; 3],
 }
 
+/// `origin + spacing * p` per axis: world coordinates of a point in
+/// global index space (the one mapping every entry point uses, so that
+/// world points computed now or later are bit-identical).
+pub(crate) fn index_to_world(origin: [f64; 3], spacing: [f64; 3], p: [f64; 3]) -> [f64; 3] {
+    [
+        origin[0] + spacing[0] * p[0],
+        origin[1] + spacing[1] * p[1],
+        origin[2] + spacing[2] * p[2],
+    ]
+}
+
 impl<'a> Volume<'a> {
     /// A contiguous volume (x fastest) with origin 0 and spacing 1.
     pub fn new(samples: impl Into<Samples<'a>>, dims: [u64; 3]) -> Self {
@@ -192,6 +203,11 @@ impl<'a> Volume<'a> {
     pub fn with_spacing(mut self, spacing: [f64; 3]) -> Self {
         self.spacing = spacing;
         self
+    }
+
+    /// World coordinates of a point in global index space.
+    pub(crate) fn world_point(&self, p: [f64; 3]) -> [f64; 3] {
+        index_to_world(self.origin, self.spacing, p)
     }
 
     /// Number of cells, `(nx-1)(ny-1)(nz-1)` (0 for invalid dims).

@@ -310,6 +310,77 @@ fn c_api_equals_rust_api() {
 }
 
 #[test]
+fn triangles_move_out_and_world_points_come_on_request() {
+    let n = 24;
+    let data = sphere(n, [11.3, 10.1, 12.7]);
+    let mut cv = c_volume(&data, [n, n, n]);
+    cv.origin = [-3.25, 0.5, 7.0];
+    cv.spacing = [0.3, 1.7, 0.9];
+    let rv = Volume::new(&data, [n, n, n])
+        .with_origin(cv.origin)
+        .with_spacing(cv.spacing);
+    for eps in [0.0, 0.01] {
+        let o = pmc_options_new();
+        unsafe { assert_eq!(pmc_options_set_epsilon(o, eps), PmcStatus::Ok) };
+        let ro = Options {
+            epsilon: eps,
+            ..Options::default()
+        };
+        let rm = extract(&rv, 5.5, &ro).unwrap();
+        let cm = c_extract(&cv, 5.5, o).unwrap();
+        unsafe { pmc_options_free(o) };
+        // World points, computed on first request by several threads at
+        // once: one array, bit-identical to the Rust API's.
+        let addrs: Vec<usize> = std::thread::scope(|s| {
+            let h = cm.0 as usize;
+            let jobs: Vec<_> = (0..4)
+                .map(|_| s.spawn(move || unsafe { pmc_mesh_points(h as *const pmc_mesh) } as usize))
+                .collect();
+            jobs.into_iter().map(|j| j.join().unwrap()).collect()
+        });
+        assert!(addrs[0] != 0 && addrs.iter().all(|&a| a == addrs[0]));
+        cm.assert_equals(&rm);
+
+        let nt = unsafe { pmc_mesh_triangle_count(cm.0) };
+        let mut count = u64::MAX;
+        let taken = unsafe { pmc_mesh_take_triangles(cm.0, &mut count) };
+        assert_eq!(count, nt);
+        assert_eq!(count, rm.triangles.len() as u64);
+        let flat: Vec<i64> = rm.triangles.iter().flatten().map(|&i| i as i64).collect();
+        assert_eq!(
+            unsafe { std::slice::from_raw_parts(taken, 3 * nt as usize) },
+            &flat[..]
+        );
+        // The mesh keeps everything else.
+        unsafe {
+            assert_eq!(pmc_mesh_triangle_count(cm.0), 0);
+            assert!(pmc_mesh_triangles(cm.0).is_null());
+            assert_eq!(pmc_mesh_point_count(cm.0), rm.index_points.len() as u64);
+            let levels = pmc_mesh_triangle_levels(cm.0);
+            assert_eq!(
+                std::slice::from_raw_parts(levels, nt as usize),
+                &rm.levels[..]
+            );
+            let mut st = pmc_stats::default();
+            assert_eq!(pmc_mesh_stats(cm.0, &mut st), PmcStatus::Ok);
+            assert_eq!(st.output_triangles, nt);
+            // Nothing left to take; NULL is accepted.
+            let mut again = 7;
+            assert!(pmc_mesh_take_triangles(cm.0, &mut again).is_null());
+            assert_eq!(again, 0);
+            assert!(pmc_mesh_take_triangles(ptr::null_mut(), ptr::null_mut()).is_null());
+        }
+        // The array outlives its mesh.
+        drop(cm);
+        assert_eq!(
+            unsafe { *taken.add(3 * nt as usize - 1) },
+            flat[flat.len() - 1]
+        );
+        unsafe { pmc_buffer_free(taken.cast()) };
+    }
+}
+
+#[test]
 fn index_offset_and_strides_equal_rust_api() {
     let n = 14;
     let data = sphere(n, [6.0, 6.5, 7.0]);

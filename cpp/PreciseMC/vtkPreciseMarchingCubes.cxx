@@ -841,8 +841,32 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     newScalars->SetNumberOfComponents(1);
     newScalars->SetNumberOfTuples(numPts);
   }
+  // The connectivity: one contour, kept whole and in the library's winding,
+  // is the library's own triangle array, adopted without a copy (it is
+  // freed by pmc_buffer_free when VTK lets it go); otherwise a copy.
   vtkNew<vtkIdTypeArray> connectivity;
-  connectivity->SetNumberOfValues(3 * numTris);
+  bool adopted = false;
+  if (numContours == 1 && selections[0].All && !flipWinding && numTris > 0 &&
+    sizeof(vtkIdType) == sizeof(int64_t))
+  {
+    uint64_t count = 0;
+    int64_t* taken = pmc_mesh_take_triangles(meshes[0].get(), &count);
+    if (!taken || count != static_cast<uint64_t>(numTris))
+    {
+      pmc_buffer_free(taken);
+      vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[0]);
+      output->Initialize();
+      return 1;
+    }
+    connectivity->SetArray(reinterpret_cast<vtkIdType*>(taken), 3 * numTris, /*save=*/0,
+      vtkAbstractArray::VTK_DATA_ARRAY_USER_DEFINED);
+    connectivity->SetArrayFreeFunction(pmc_buffer_free);
+    adopted = true;
+  }
+  else
+  {
+    connectivity->SetNumberOfValues(3 * numTris);
+  }
   vtkNew<vtkIdTypeArray> offsets;
   offsets->SetNumberOfValues(numTris + 1);
   vtkSmartPointer<vtkUnsignedCharArray> levels;
@@ -876,7 +900,10 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   vtkIdType triOffset = 0;
   vtkIdType* conn = connectivity->GetPointer(0);
   vtkIdType* offs = offsets->GetPointer(0);
-  AdviseHugePages(conn, sizeof(vtkIdType) * 3 * static_cast<size_t>(numTris));
+  if (!adopted)
+  {
+    AdviseHugePages(conn, sizeof(vtkIdType) * 3 * static_cast<size_t>(numTris));
+  }
   AdviseHugePages(offs, sizeof(vtkIdType) * static_cast<size_t>(numTris + 1));
   AdviseHugePages(newPts->GetVoidPointer(0),
     static_cast<size_t>(newPts->GetData()->GetDataTypeSize()) * 3 * static_cast<size_t>(numPts));
@@ -889,12 +916,14 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     const pmc_mesh* mesh = meshes[c].get();
     const vtkIdType np = static_cast<vtkIdType>(pmc_mesh_point_count(mesh));
     const vtkIdType nt = static_cast<vtkIdType>(pmc_mesh_triangle_count(mesh));
-    const double* pts = pmc_mesh_points(mesh);
+    // World points are mapped here from the index points (the library
+    // computes its own only on request): the same origin + spacing * ijk.
     const double* ijk = pmc_mesh_index_points(mesh);
     const int64_t* tris = pmc_mesh_triangles(mesh);
     const float* normals = pmc_mesh_normals(mesh);
     const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh);
-    if ((np > 0 && (!pts || !ijk)) || (nt > 0 && (!tris || !triLevels)) ||
+    if ((np > 0 && !ijk) || (nt > 0 && (!tris || !triLevels)) ||
+      (adopted && static_cast<vtkIdType>(selections[0].NumberOfTriangles) > 0 && !triLevels) ||
       (computeNormals && np > 0 && !normals))
     {
       vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
@@ -914,15 +943,16 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
         }
         const vtkIdType o = ptOffset + (pointMap ? pointMap[i] : i);
         double x[3];
+        const double* p = ijk + 3 * i;
         if (axisAligned)
         {
-          x[0] = pts[3 * i];
-          x[1] = pts[3 * i + 1];
-          x[2] = pts[3 * i + 2];
+          for (int r = 0; r < 3; ++r)
+          {
+            x[r] = volume.origin[r] + volume.spacing[r] * p[r];
+          }
         }
         else
         {
-          const double* p = ijk + 3 * i;
           for (int r = 0; r < 3; ++r)
           {
             x[r] = origin[r] + indexToWorld[r][0] * p[0] + indexToWorld[r][1] * p[1] +
@@ -985,17 +1015,20 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       for (vtkIdType k = first; k < last; ++k)
       {
         const vtkIdType t = selection.All ? k : selection.Triangles[static_cast<size_t>(k)];
-        const int64_t* tri = tris + 3 * t;
-        vtkIdType ids[3];
-        for (int v = 0; v < 3; ++v)
+        if (!adopted)
         {
-          const vtkIdType id = static_cast<vtkIdType>(tri[v]);
-          ids[v] = ptOffset + (pointMap ? pointMap[id] : id);
+          const int64_t* tri = tris + 3 * t;
+          vtkIdType ids[3];
+          for (int v = 0; v < 3; ++v)
+          {
+            const vtkIdType id = static_cast<vtkIdType>(tri[v]);
+            ids[v] = ptOffset + (pointMap ? pointMap[id] : id);
+          }
+          vtkIdType* out = conn + 3 * (triOffset + k);
+          out[0] = ids[0];
+          out[1] = ids[flipWinding ? 2 : 1];
+          out[2] = ids[flipWinding ? 1 : 2];
         }
-        vtkIdType* out = conn + 3 * (triOffset + k);
-        out[0] = ids[0];
-        out[1] = ids[flipWinding ? 2 : 1];
-        out[2] = ids[flipWinding ? 1 : 2];
         offs[triOffset + k] = 3 * (triOffset + k);
         if (levelOut)
         {

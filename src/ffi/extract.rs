@@ -101,10 +101,12 @@ pub unsafe extern "C" fn pmc_extract(
                 ControlFlow::Continue(())
             }
         };
-        let mesh = crate::extract_with_progress(&volume, isovalue, &opts.core, &mut progress)
-            .map_err(failure)?;
+        let mesh =
+            crate::extract::extract_index_points(&volume, isovalue, &opts.core, &mut progress)
+                .map_err(failure)?;
+        let handle = into_handle(mesh, volume.origin, volume.spacing);
         // SAFETY: as above.
-        unsafe { out_mesh.write(into_handle(mesh)) };
+        unsafe { out_mesh.write(handle) };
         Ok(())
     })
 }

@@ -1,7 +1,11 @@
 //! `pmc_mesh`: the opaque result of an extraction, and its statistics.
 
+use std::sync::OnceLock;
+
+use super::buffer::hand_out;
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
+use crate::volume::index_to_world;
 use crate::{Mesh, Stats};
 
 /// An extracted triangle mesh (opaque), owned by the caller from a
@@ -12,15 +16,44 @@ use crate::{Mesh, Stats};
 /// points towards lower sample values, as in `vtkMarchingCubes`.
 ///
 /// Arrays returned by the accessors are owned by the mesh: valid until
-/// `pmc_mesh_free`, read-only, and `NULL` when empty. A mesh is immutable,
-/// so any number of threads may read it concurrently.
+/// `pmc_mesh_free`, read-only, and `NULL` when empty. Apart from
+/// `pmc_mesh_take_triangles`, no call changes a mesh, so any number of
+/// threads may read it concurrently.
 pub struct pmc_mesh {
     _private: [u8; 0],
 }
 
-/// Wraps a core mesh into a new handle owned by the caller.
-pub(crate) fn into_handle(mesh: Mesh) -> *mut pmc_mesh {
-    Box::into_raw(Box::new(mesh)).cast()
+/// What a handle points to: the core mesh, extracted without world
+/// coordinates, and the mapping that gives them on first request (most
+/// callers, such as the VTK filter, map the index points themselves, and
+/// an extraction need not write 24 bytes a point that nobody reads).
+struct Handle {
+    mesh: Mesh,
+    origin: [f64; 3],
+    spacing: [f64; 3],
+    world: OnceLock<Vec<[f64; 3]>>,
+}
+
+/// Wraps a core mesh, extracted from a volume with this origin and
+/// spacing, into a new handle owned by the caller.
+pub(crate) fn into_handle(mesh: Mesh, origin: [f64; 3], spacing: [f64; 3]) -> *mut pmc_mesh {
+    let handle = Handle {
+        mesh,
+        origin,
+        spacing,
+        world: OnceLock::new(),
+    };
+    Box::into_raw(Box::new(handle)).cast()
+}
+
+/// The handle's contents, `None` for `NULL`.
+///
+/// # Safety
+///
+/// `p` must be `NULL` or a live handle from `pmc_extract`.
+unsafe fn handle<'a>(p: *const pmc_mesh) -> Option<&'a Handle> {
+    // SAFETY: a non-null handle came from `into_handle` and is live.
+    unsafe { p.cast::<Handle>().as_ref() }
 }
 
 /// The mesh behind a handle, `None` for `NULL`.
@@ -29,8 +62,8 @@ pub(crate) fn into_handle(mesh: Mesh) -> *mut pmc_mesh {
 ///
 /// `p` must be `NULL` or a live handle from `pmc_extract`.
 unsafe fn mesh<'a>(p: *const pmc_mesh) -> Option<&'a Mesh> {
-    // SAFETY: a non-null handle came from `into_handle` and is live.
-    unsafe { p.cast::<Mesh>().as_ref() }
+    // SAFETY: forwarded contract.
+    unsafe { handle(p) }.map(|h| &h.mesh)
 }
 
 /// `NULL` for an empty slice, else its first element.
@@ -154,7 +187,7 @@ impl From<&Stats> for pmc_stats {
 pub unsafe extern "C" fn pmc_mesh_point_count(mesh: *const pmc_mesh) -> u64 {
     // SAFETY: forwarded contract.
     value_boundary(0, || {
-        unsafe { self::mesh(mesh) }.map_or(0, |m| m.points.len() as u64)
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.index_points.len() as u64)
     })
 }
 
@@ -172,7 +205,11 @@ pub unsafe extern "C" fn pmc_mesh_triangle_count(mesh: *const pmc_mesh) -> u64 {
 }
 
 /// Point positions in world coordinates: `3 * pmc_mesh_point_count`
-/// doubles, x, y, z per point. `NULL` for a `NULL` or empty mesh.
+/// doubles, x, y, z per point, `origin + spacing * index point` per axis
+/// (bit-identical to the core's `Mesh::points`). Computed on the first
+/// call (24 bytes a point; thread-safe), so a caller that maps
+/// `pmc_mesh_index_points` itself never pays for them. `NULL` for a
+/// `NULL` or empty mesh, and if their memory cannot be allocated.
 ///
 /// # Safety
 ///
@@ -181,7 +218,25 @@ pub unsafe extern "C" fn pmc_mesh_triangle_count(mesh: *const pmc_mesh) -> u64 {
 pub unsafe extern "C" fn pmc_mesh_points(mesh: *const pmc_mesh) -> *const f64 {
     value_boundary(std::ptr::null(), || {
         // SAFETY: forwarded contract.
-        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.points))
+        let Some(h) = (unsafe { handle(mesh) }) else {
+            return std::ptr::null();
+        };
+        if let Some(world) = h.world.get() {
+            return ptr_or_null(world);
+        }
+        let index = &h.mesh.index_points;
+        let mut world = Vec::new();
+        if world.try_reserve_exact(index.len()).is_err() {
+            return std::ptr::null();
+        }
+        world.extend(
+            index
+                .iter()
+                .map(|&p| index_to_world(h.origin, h.spacing, p)),
+        );
+        // Two threads racing here computed the same values; one is kept.
+        let _ = h.world.set(world);
+        h.world.get().map_or(std::ptr::null(), |w| ptr_or_null(w))
     })
 }
 
@@ -213,6 +268,43 @@ pub unsafe extern "C" fn pmc_mesh_triangles(mesh: *const pmc_mesh) -> *const i64
         // SAFETY: forwarded contract. The core stores `u64` indices below
         // the point count (< 2^63), which read the same as `i64`.
         unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.triangles))
+    })
+}
+
+/// Moves the triangles out of `mesh` to the caller, without a copy (to be
+/// adopted, say, as the connectivity of a `vtkCellArray`): returns the
+/// array `pmc_mesh_triangles` returned, `3 * n` point indices, and stores
+/// `n` in `*out_count` (when `out_count` is not `NULL`). The caller owns
+/// the array and releases it with `pmc_buffer_free`. Afterwards the mesh
+/// has no triangles (`pmc_mesh_triangles` gives `NULL` and
+/// `pmc_mesh_triangle_count` 0); its points, per-triangle levels (still
+/// `n` bytes) and statistics stay. Returns `NULL` (and 0) for a `NULL`
+/// mesh or one without triangles.
+///
+/// The one call that changes a mesh: it must not run concurrently with
+/// other calls on the same mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`, not used by
+/// another thread during the call; `out_count` must be `NULL` or writable.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_take_triangles(
+    mesh: *mut pmc_mesh,
+    out_count: *mut u64,
+) -> *mut i64 {
+    value_boundary(std::ptr::null_mut(), || {
+        // SAFETY: per the contract, a non-null handle came from
+        // `into_handle`, is live and used by no one else during the call.
+        let h = unsafe { mesh.cast::<Handle>().as_mut() };
+        let taken = h.map_or_else(Vec::new, |h| std::mem::take(&mut h.mesh.triangles));
+        if !out_count.is_null() {
+            // SAFETY: non-null and writable per the contract.
+            unsafe { out_count.write_unaligned(taken.len() as u64) };
+        }
+        // The core's `u64` indices are below the point count (< 2^63) and
+        // read the same as `i64`.
+        hand_out(taken)
     })
 }
 
@@ -317,7 +409,7 @@ pub unsafe extern "C" fn pmc_mesh_free(mesh: *mut pmc_mesh) {
         if !mesh.is_null() {
             // SAFETY: per the contract, `mesh` came from `into_handle` and
             // is freed once.
-            drop(unsafe { Box::from_raw(mesh.cast::<Mesh>()) });
+            drop(unsafe { Box::from_raw(mesh.cast::<Handle>()) });
         }
     })
 }

@@ -23,6 +23,7 @@
 
 #![allow(non_camel_case_types)]
 
+mod buffer;
 mod enums;
 mod error;
 mod extract;
@@ -34,6 +35,7 @@ mod status;
 mod version;
 mod volume;
 
+pub use buffer::pmc_buffer_free;
 pub use enums::{
     pmc_normals, pmc_reconstruction, pmc_rule, pmc_scalar_type, pmc_topology, PmcNormals,
     PmcReconstruction, PmcRule, PmcScalarType, PmcTopology,
@@ -44,8 +46,8 @@ pub use measure::{pmc_distance, pmc_measure_distance};
 pub use mesh::{
     pmc_mesh, pmc_mesh_cells_refined_on_faces_only, pmc_mesh_free, pmc_mesh_index_points,
     pmc_mesh_normals, pmc_mesh_point_count, pmc_mesh_points, pmc_mesh_recut_polygons,
-    pmc_mesh_stats, pmc_mesh_triangle_count, pmc_mesh_triangle_levels, pmc_mesh_triangles,
-    pmc_stats,
+    pmc_mesh_stats, pmc_mesh_take_triangles, pmc_mesh_triangle_count, pmc_mesh_triangle_levels,
+    pmc_mesh_triangles, pmc_stats,
 };
 pub use options::{
     pmc_options, pmc_options_free, pmc_options_new, pmc_options_set_epsilon,

@@ -84,6 +84,47 @@ static void test_sphere(void) {
     free((void *)v.data);
 }
 
+/* The triangles move out without a copy and outlive their mesh; the
+ * world points, computed on request, are origin + spacing * index point. */
+static void test_take_triangles(void) {
+    pmc_volume v = make_sphere(N, PMC_SCALAR_TYPE_F32, 1.0);
+    pmc_mesh *m;
+    uint64_t i, nt, np, count = 12345;
+    int64_t *taken, *copy;
+    const double *w, *ijk;
+    int same = 1;
+
+    v.origin[0] = -2.5; v.origin[1] = 4.0; v.origin[2] = 0.125;
+    v.spacing[0] = 0.5; v.spacing[1] = 1.25; v.spacing[2] = 3.0;
+    m = extract(&v, RADIUS, NULL);
+    nt = pmc_mesh_triangle_count(m);
+    np = pmc_mesh_point_count(m);
+    CHECK(nt > 0 && np > 0);
+    w = pmc_mesh_points(m);
+    ijk = pmc_mesh_index_points(m);
+    CHECK(w != NULL && ijk != NULL && pmc_mesh_points(m) == w);
+    for (i = 0; i < np; i++) {
+        int d;
+        for (d = 0; d < 3; d++) {
+            same &= w[3 * i + d] == v.origin[d] + v.spacing[d] * ijk[3 * i + d];
+        }
+    }
+    CHECK(same);
+    copy = malloc(sizeof(int64_t) * 3 * nt);
+    memcpy(copy, pmc_mesh_triangles(m), sizeof(int64_t) * 3 * nt);
+    taken = pmc_mesh_take_triangles(m, &count);
+    CHECK(taken != NULL && count == nt);
+    CHECK(pmc_mesh_triangle_count(m) == 0 && pmc_mesh_triangles(m) == NULL);
+    CHECK(pmc_mesh_point_count(m) == np && pmc_mesh_triangle_levels(m) != NULL);
+    CHECK(pmc_mesh_take_triangles(m, &count) == NULL && count == 0);
+    pmc_mesh_free(m);
+    CHECK(memcmp(copy, taken, sizeof(int64_t) * 3 * nt) == 0);
+    pmc_buffer_free(taken);
+    pmc_buffer_free(NULL);
+    free(copy);
+    free((void *)v.data);
+}
+
 /* Every scalar type with the same integer values gives the same mesh. */
 static void test_scalar_types(void) {
     pmc_volume ref = make_sphere(16, PMC_SCALAR_TYPE_F64, 4.0);
@@ -435,6 +476,7 @@ static void test_recut_polygons(void) {
 int main(void) {
     test_layout();
     test_sphere();
+    test_take_triangles();
     test_scalar_types();
     test_strides();
     test_pieces();
