@@ -301,45 +301,15 @@ fn run<T: Scalar>(
         match options.reconstruction {
             Reconstruction::Trilinear => {
                 let f = Trilinear::new(grid);
-                run_with(
-                    exec,
-                    nslabs,
-                    grid,
-                    &f,
-                    volume,
-                    iso,
-                    options,
-                    r,
-                    how.world_points,
-                )
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r, how)
             }
             Reconstruction::CatmullRom => {
                 let f = Tricubic::<T, CatmullRomKernel>::new(grid);
-                run_with(
-                    exec,
-                    nslabs,
-                    grid,
-                    &f,
-                    volume,
-                    iso,
-                    options,
-                    r,
-                    how.world_points,
-                )
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r, how)
             }
             Reconstruction::BSpline => {
                 let f = Tricubic::<T, BSplineKernel>::new(grid);
-                run_with(
-                    exec,
-                    nslabs,
-                    grid,
-                    &f,
-                    volume,
-                    iso,
-                    options,
-                    r,
-                    how.world_points,
-                )
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r, how)
             }
             Reconstruction::BSplineInterpolating => {
                 let coefficients = prefilter(&grid)?;
@@ -347,17 +317,7 @@ fn run<T: Scalar>(
                 let cv =
                     Volume::new(coefficients.as_slice(), dims).with_index_offset(grid.index_offset);
                 let f = Tricubic::<f64, BSplineKernel>::new(Grid::new(&coefficients, &cv));
-                run_with(
-                    exec,
-                    nslabs,
-                    grid,
-                    &f,
-                    volume,
-                    iso,
-                    options,
-                    r,
-                    how.world_points,
-                )
+                run_with(exec, nslabs, grid, &f, volume, iso, options, r, how)
             }
         }
     };
@@ -387,7 +347,7 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
     iso: f64,
     options: &Options,
     reporter: &mut Reporter<'_>,
-    world_points: bool,
+    how: How,
 ) -> Result<Mesh, Error> {
     let start = Instant::now();
     let cell_dims = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
@@ -536,7 +496,14 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
 
     let t_asm = Instant::now();
     let passes_wall = (t_asm - start).as_secs_f64();
-    let mut mesh = assemble(outs, volume, passes_wall, &mut stats, exec, world_points)?;
+    let mut mesh = assemble(
+        outs,
+        volume,
+        passes_wall,
+        &mut stats,
+        exec,
+        how.world_points,
+    )?;
     stats.time_assemble = t_asm.elapsed().as_secs_f64();
     if !reporter.report(0.97) {
         return Err(Error::Aborted);
