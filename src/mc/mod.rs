@@ -47,7 +47,15 @@ pub fn case_index(f: &[f64; 8]) -> u8 {
 /// trilinear topology test ran (the cell was ambiguous).
 #[inline]
 pub fn cell_triangles(f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool {
-    let case = case_index(f);
+    cell_triangles_of_case(case_index(f), f, topology, out)
+}
+
+/// [`cell_triangles`] for a cell whose case index the caller already has
+/// (`case == case_index(f)`): the extraction reads it from its case row,
+/// and recomputing it took a tenth of plain Marching Cubes' cell loop.
+#[inline]
+pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool {
+    debug_assert_eq!(case, case_index(f));
     if case == 0 || case == 255 {
         return false;
     }
