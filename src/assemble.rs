@@ -405,13 +405,8 @@ mod tests {
     /// full, the edge balance is unchanged and so is everything else.
     #[test]
     fn duplicates_cancel_in_pairs_and_keep_the_balance() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |n: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % n
-        };
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut next = |n: u64| rng.below(n);
         for _ in 0..500 {
             let (ups, downs) = (next(4) as usize, next(4) as usize);
             let mut tris: Vec<[u64; 3]> = (0..next(6)).map(|i| [10 + i, 20 + i, 30 + i]).collect();

@@ -371,13 +371,8 @@ mod tests {
 
     #[test]
     fn recut_polygons_keep_their_outline_and_get_fewer_stuck_diagonals() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        let mut next = move || rng.unit();
         let (mut cells, mut recut, mut kept_bits) = (0, 0, 0);
         for n in 0..40_000 {
             // Half the cells hug a face: four corners just off the

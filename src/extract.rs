@@ -1443,13 +1443,8 @@ mod tests {
     /// few other cases, from every start.
     #[test]
     fn next_crossed_finds_every_crossed_cell_in_order() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |n: u64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed % n
-        };
+        let mut rng = crate::test_rng::XorShift(0x2545_f491_4f6c_dd1d);
+        let mut next = |n: u64| rng.below(n);
         for len in 0..40 {
             for _ in 0..200 {
                 let row: Vec<u8> = (0..len)

@@ -61,6 +61,8 @@ mod nearest;
 mod normals;
 mod par;
 mod refine;
+#[cfg(test)]
+mod test_rng;
 
 pub use error::Error;
 pub use extract::{extract, extract_with_progress, MAX_THREADS};

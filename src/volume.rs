@@ -581,13 +581,8 @@ mod tests {
     /// isovalues on, next to and between them.
     #[test]
     fn float32_threshold_matches_the_f64_comparison() {
-        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        let mut next = || rng.bits();
         let mut vals: Vec<f32> = [
             0.0,
             -0.0,
@@ -612,7 +607,11 @@ mod tests {
                 continue;
             }
             let x = v as f64;
-            let up = f32::from_bits(if v >= 0.0 { v.to_bits() + 1 } else { v.to_bits() - 1 });
+            let up = f32::from_bits(if v >= 0.0 {
+                v.to_bits() + 1
+            } else {
+                v.to_bits() - 1
+            });
             isos.extend([x, x.next_up_f64(), x.next_down_f64(), (x + up as f64) / 2.0]);
         }
         for iso in isos.into_iter().filter(|x| !x.is_nan()) {
