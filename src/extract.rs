@@ -24,7 +24,7 @@ use crate::diagonals::choose_diagonals;
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::layers::{self, LayerScratch, ScratchPool};
-use crate::mc::{case_index, cell_triangles_of_case, Patch};
+use crate::mc::{cell_triangles_of_case, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::normals::compute_normals;
@@ -745,7 +745,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 for q in 0..8 {
                     f[q] = c[q] - sh.iso;
                 }
-                debug_assert_eq!(case, case_index(&f));
                 patch.clear();
                 if cell_triangles_of_case(case, &f, opts.topology, &mut patch) {
                     out.ambiguous += 1;
