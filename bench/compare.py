@@ -246,6 +246,9 @@ def build(cfg, img, iso):
         f.SetComputeNormals(False)
         f.SetComputeScalars(False)
         f.SetNumberOfThreads(cfg["threads"])
+        # On vtkSMPTools (the worker's backend and thread count) instead of
+        # threads of the library's own.
+        f.SetUseSMPTools(cfg.get("smp_tools", False))
         f.SetInputData(img)
     else:
         raise ValueError(kind)
@@ -354,6 +357,9 @@ def plan(vols, quick):
             for t in ((2,) if quick else (1, 2)):
                 cfgs.append(dict(base, kind="pmc", label=f"PreciseMC off {topo} {t}T",
                                  topology=topo, eps=0.0, threads=t, rounds=rounds))
+                cfgs.append(dict(base, kind="pmc", label=f"PreciseMC off {topo} {t}T SMP",
+                                 topology=topo, eps=0.0, threads=t, rounds=rounds,
+                                 smp_tools=True))
         eps_list = [0.03, 0.003] if quick else list(EPSILONS)
         if v["group"] == "main" and v["dtype"] != "uint8" and not quick:
             # Smooth data: Marching Cubes is already within ~0.003 cells.
@@ -383,6 +389,8 @@ def plan(vols, quick):
                     measure_cap=0, density=3, scaling=True)
         cfgs.append(dict(base, kind="fe", label="vtkFlyingEdges3D 2T TBB", threads=2))
         cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T", eps=0.0, threads=2))
+        cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T SMP", eps=0.0,
+                         threads=2, smp_tools=True))
         if not quick:
             cfgs.append(dict(base, kind="mc", label="vtkMarchingCubes", threads=1))
             cfgs.append(dict(base, kind="pmc", label="PreciseMC A1 eps 0.01 2T", rule="A1",
@@ -588,7 +596,8 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
             add("")
     add("## Targets\n")
     add("Refinement off against vtkFlyingEdges3D at the same thread count (time ratio, "
-        "< 1 is faster), on the volumes of at least 128^3:\n")
+        "< 1 is faster), on the volumes of at least 128^3; each cell: the library's own "
+        "threads / its tasks on vtkSMPTools (UseSMPTools):\n")
     add("| volume | classic 1T | classic 2T | trilinear 1T | trilinear 2T |")
     add("|---|---:|---:|---:|---:|")
     for name, rs in by_vol.items():
@@ -598,9 +607,12 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
         cells = []
         for topo in ("classic", "trilinear"):
             for t in (1, 2):
-                m = [r for r in rs if r.get("label") == f"PreciseMC off {topo} {t}T"
-                     and "error" not in r]
-                cells.append(f"{m[0]['time'] / fe[t]['time']:.2f}" if m and t in fe else "")
+                pair = []
+                for suffix in ("", " SMP"):
+                    m = [r for r in rs if r.get("label") == f"PreciseMC off {topo} {t}T{suffix}"
+                         and "error" not in r]
+                    pair.append(f"{m[0]['time'] / fe[t]['time']:.2f}" if m and t in fe else "-")
+                cells.append(" / ".join(pair))
         add(f"| {name} | " + " | ".join(cells) + " |")
     refined = [r for r in results if r.get("kind") == "pmc" and r.get("eps", 0) > 0
                and "error" not in r and r["threads"] == 2 and r["tris"] >= 1e6]

@@ -482,6 +482,31 @@ typedef struct pmc_stats {
  */
 typedef int (*pmc_progress_fn)(void *user_data, double fraction);
 
+/**
+ * One task of a batch handed to a `pmc_executor_fn`: call it with the
+ * batch's `task_data` and an index below the batch's `count`. It returns
+ * normally whatever happens inside (a failure is reported by
+ * `pmc_extract`, not by the task); calls with an index out of range, or a
+ * second call with the same index, do nothing.
+ */
+typedef void (*pmc_task_fn)(void *task_data, uint64_t index);
+
+/**
+ * A host's executor (see `pmc_options_set_executor`): must call
+ * `task(task_data, i)` once for every `i` in `[0, count)`, in any order,
+ * on any threads, possibly at once, and return only once every call has
+ * returned. Tasks never wait for each other, so running them one after
+ * the other on the calling thread is correct too. It must not call `task`
+ * after it has returned. `executor_data` is the pointer given to
+ * `pmc_options_set_executor`. It is called only on the thread that called
+ * `pmc_extract`, a few times per extraction (one batch per parallel
+ * step).
+ *
+ * With VTK, for instance:
+ * `vtkSMPTools::For(0, count, [&](vtkIdType b, vtkIdType e) { for (vtkIdType i = b; i < e; ++i) task(task_data, i); });`
+ */
+typedef void (*pmc_executor_fn)(void *executor_data, uint64_t count, pmc_task_fn task, void *task_data);
+
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
@@ -741,7 +766,7 @@ void pmc_mesh_free(struct pmc_mesh *mesh);
  * Creates options with the defaults: epsilon 0.01, max level 5, rule
  * `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
  * `PMC_NORMALS_NONE`, no triangle cap, all cores, no progress callback,
- * index offset (0, 0, 0).
+ * no executor (threads of its own), index offset (0, 0, 0).
  *
  * Returns a new handle owned by the caller, to be released with
  * `pmc_options_free`; `NULL` only if an internal error occurred.
@@ -887,6 +912,36 @@ pmc_status pmc_options_set_threads(struct pmc_options *options, uint32_t threads
  * `pmc_extract` using these options.
  */
 pmc_status pmc_options_set_progress(struct pmc_options *options, pmc_progress_fn callback, void *user_data);
+
+/**
+ * Lends the host's thread pool to later extractions with these options
+ * (see `pmc_executor_fn`): their parallel steps become tasks of
+ * `executor` instead of running on threads `pmc_extract` starts and
+ * joins, and the thread count (`pmc_options_set_threads`) is not used:
+ * the volume is cut for `concurrency` workers, the number of tasks the
+ * host runs at once. `executor = NULL` clears it (the default: threads of
+ * the extraction's own). The output does not depend on it.
+ *
+ * With an executor, the progress callback is called after the tasks the
+ * executor happens to run on the thread that called `pmc_extract` (a
+ * pool whose calling thread takes part, as TBB's does, reports a few
+ * times per pass; others only between passes), and stopping takes effect
+ * at the next layer of cells of every running task. An executor that
+ * returns without running every task makes `pmc_extract` fail with
+ * `PMC_STATUS_INVALID_ARGUMENT`.
+ *
+ * Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options,
+ * `PMC_STATUS_INVALID_ARGUMENT` for a `concurrency` of 0 or above
+ * `PMC_MAX_THREADS` with a non-`NULL` executor (the options are then
+ * unchanged).
+ *
+ * # Safety
+ *
+ * As for `pmc_options_set_epsilon`; `executor` must be `NULL` or a
+ * function that honours `pmc_executor_fn`'s contract with
+ * `executor_data` during every later `pmc_extract` using these options.
+ */
+pmc_status pmc_options_set_executor(struct pmc_options *options, pmc_executor_fn executor, void *executor_data, uint32_t concurrency);
 
 /**
  * Sets the global index of the volume's first sample (VTK's extent start,

@@ -45,7 +45,7 @@ pub(crate) fn assemble(
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
                     (lo.min(v.z), hi.max(v.z))
                 })
-        })
+        })?
     };
     // Points of a slab's bottom plane that the slab before holds on its
     // top plane: (id here, id there), in increasing id here.
@@ -67,7 +67,7 @@ pub(crate) fn assemble(
             .filter(|(_, v)| v.z == plane)
             .filter_map(|(i, v)| before.get(&key(*v)).map(|&j| (i as u32, j)))
             .collect()
-    });
+    })?;
 
     // New points: numbered slab after slab, written in parallel. A slab
     // with no point on the plane below keeps its own numbering shifted by
@@ -112,7 +112,7 @@ pub(crate) fn assemble(
                 }
             }
             remap
-        })
+        })?
     };
     for s in 1..n {
         let (done, rest) = remaps.split_at_mut(s);
@@ -163,7 +163,7 @@ pub(crate) fn assemble(
                 level_out.copy_from_slice(&o.levels);
             }
             (cand, degenerate)
-        });
+        })?;
     drop(remaps);
     if n == 1 {
         let verts = std::mem::take(&mut outs[0].verts);
@@ -183,12 +183,12 @@ pub(crate) fn assemble(
     let mut points = Vec::new();
     if world_points {
         reserve(&mut points, index_points.len())?;
-        exec.extend(&mut points, &index_points, |p| volume.world_point(*p));
+        exec.extend(&mut points, &index_points, |p| volume.world_point(*p))?;
     }
     let (max, sum) = exec
         .map(levels.chunks(1 << 16).collect(), |c| {
             c.iter().fold((0, 0), |(m, s), &l| (m.max(l), s + l as u64))
-        })
+        })?
         .into_iter()
         .fold((0u8, 0u64), |a, b| (a.0.max(b.0), a.1 + b.1));
     stats.max_level = max as u32;
@@ -378,7 +378,7 @@ fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
 fn zeroed<T: Default + Clone + Send + Sync>(exec: Exec<'_>, n: usize) -> Result<Vec<T>, Error> {
     let mut v = Vec::new();
     reserve(&mut v, n)?;
-    exec.fill_default(&mut v, n);
+    exec.fill_default(&mut v, n)?;
     Ok(v)
 }
 

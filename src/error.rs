@@ -62,6 +62,15 @@ pub enum Error {
     /// The progress callback asked to stop.
     #[error("aborted by the progress callback")]
     Aborted,
+    /// The host's executor (see [`crate::Executor`]) returned without
+    /// running every task it was given.
+    #[error("the executor ran {ran} of {total} tasks")]
+    Executor {
+        /// Tasks that ran.
+        ran: usize,
+        /// Tasks handed to it.
+        total: usize,
+    },
     /// A worker thread pool could not be created.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),

@@ -38,6 +38,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod error;
+mod executor;
 mod mesh;
 mod options;
 mod volume;
@@ -65,7 +66,8 @@ mod refine;
 mod test_rng;
 
 pub use error::Error;
-pub use extract::{extract, extract_with_progress, MAX_THREADS};
+pub use executor::{Executor, SerialExecutor};
+pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};
 pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
 pub use volume::{Samples, Scalar, ScalarType, Volume};

@@ -65,7 +65,7 @@ pub(crate) fn compute_normals<T: Scalar>(
             let (c, l) = locate(DVec3::from_array(*p), dims, off);
             let v = filter.corners(c);
             finish(trilinear_gradient(&v, l), spacing)
-        }),
+        })?,
         NormalMode::CentralDifference => {
             let grad = |i: usize, j: usize, k: usize| -> DVec3 {
                 let idx = [i, j, k];
@@ -102,7 +102,7 @@ pub(crate) fn compute_normals<T: Scalar>(
                     ) * w;
                 }
                 finish(n, spacing)
-            })
+            })?
         }
     }
     Ok(normals)

@@ -1,7 +1,8 @@
 //! Test 5: determinism.
 //!
 //! * Bit-identical meshes (points, index points, triangles, levels,
-//!   normals) for 1, 2 and 4 threads.
+//!   normals) for 1, 2 and 4 threads, and on a host's executor of any
+//!   concurrency that runs the tasks in any order on any threads.
 //! * A volume cut into two pieces that share one layer of samples (same
 //!   buffer, `with_offset` + `with_index_offset`) gives bit-identical
 //!   vertices on the shared layer from both pieces, and the union of the
@@ -11,7 +12,51 @@
 mod common;
 
 use common::*;
-use precisemc::{extract, Mesh, NormalMode, Options, Rule, Volume};
+use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use precisemc::{
+    extract, extract_with_executor, Executor, Mesh, NormalMode, Options, Rule, SerialExecutor,
+    Volume,
+};
+
+/// A host's pool: `threads` scoped threads (the calling thread among them)
+/// take the tasks of a batch in a shuffled order; claims `concurrency`.
+struct Shuffled {
+    threads: usize,
+    concurrency: usize,
+    seed: u64,
+}
+
+impl Executor for Shuffled {
+    fn concurrency(&self) -> usize {
+        self.concurrency
+    }
+    fn run(&self, n: usize, task: &(dyn Fn(usize) + Sync)) {
+        let mut order: Vec<usize> = (0..n).collect();
+        let mut x = self.seed | 1;
+        for i in (1..n).rev() {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            order.swap(i, (x % (i as u64 + 1)) as usize);
+        }
+        let next = AtomicUsize::new(0);
+        let work = || loop {
+            let k = next.fetch_add(1, Ordering::Relaxed);
+            if k >= n {
+                break;
+            }
+            task(order[k]);
+        };
+        std::thread::scope(|s| {
+            for _ in 1..self.threads {
+                s.spawn(work);
+            }
+            work();
+        });
+    }
+}
 
 fn volumes() -> Vec<(&'static str, [usize; 3], Vec<f64>)> {
     vec![
@@ -67,6 +112,30 @@ fn identical_for_any_thread_count() {
                     assert!(
                         same_mesh(&one, &run(t)),
                         "{name} {cfg} {normals:?}: {t} threads differ from 1"
+                    );
+                }
+                let o = Options {
+                    normals,
+                    ..opts.clone()
+                };
+                let lent = |ex: &dyn Executor| {
+                    let mut go = |_| ControlFlow::Continue(());
+                    extract_with_executor(&vol, 0.0, &o, ex, &mut go).unwrap()
+                };
+                assert!(
+                    same_mesh(&one, &lent(&SerialExecutor)),
+                    "{name} {cfg} {normals:?}: serial executor differs"
+                );
+                for (threads, concurrency) in [(1, 3), (2, 2), (3, 5), (4, 1)] {
+                    let ex = Shuffled {
+                        threads,
+                        concurrency,
+                        seed: 17 * threads as u64 + concurrency as u64,
+                    };
+                    assert!(
+                        same_mesh(&one, &lent(&ex)),
+                        "{name} {cfg} {normals:?}: executor of {threads} threads \
+                         claiming {concurrency} differs"
                     );
                 }
             }

@@ -98,6 +98,19 @@ void AdviseHugePages(void* data, size_t bytes)
 #endif
 }
 
+// The library's executor on vtkSMPTools: every task a separate index, so
+// that the backend balances the tasks (slabs of cell layers, chunks of
+// points) one by one. The tasks never throw.
+void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
+{
+  vtkSMPTools::For(0, static_cast<vtkIdType>(count), 1, [task, taskData](vtkIdType b, vtkIdType e) {
+    for (vtkIdType i = b; i < e; ++i)
+    {
+      task(taskData, static_cast<uint64_t>(i));
+    }
+  });
+}
+
 struct OptionsDeleter
 {
   void operator()(pmc_options* o) const { pmc_options_free(o); }
@@ -315,6 +328,7 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   this->NormalMode = NORMALS_GRADIENT;
   this->MaxTriangles = 0;
   this->NumberOfThreads = 0;
+  this->UseSMPTools = 0;
 
   this->NumberOfExecutions = 0;
   this->ResetStatistics();
@@ -669,6 +683,14 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   {
     failed = "NumberOfThreads";
   }
+  else if (this->UseSMPTools &&
+    (status = pmc_options_set_executor(options.get(), &SMPExecutor, nullptr,
+       static_cast<uint32_t>(std::min<int>(std::max(1, vtkSMPTools::GetEstimatedNumberOfThreads()),
+         static_cast<int>(PMC_MAX_THREADS))))) !=
+      PMC_STATUS_OK)
+  {
+    failed = "UseSMPTools";
+  }
   else if ((status = pmc_options_set_index_offset(options.get(), indexOffset)) != PMC_STATUS_OK)
   {
     failed = "index offset";
@@ -887,7 +909,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   // large output, with more than one thread allowed, they run through
   // vtkSMPTools (whose backend and thread count the application chooses).
   auto forRange = [this](vtkIdType n, const std::function<void(vtkIdType, vtkIdType)>& f) {
-    if (this->NumberOfThreads == 1 || n < 65536)
+    if ((this->NumberOfThreads == 1 && !this->UseSMPTools) || n < 65536)
     {
       f(0, n);
     }
@@ -1243,6 +1265,7 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "NormalMode: " << this->GetNormalModeAsString() << "\n";
   os << indent << "MaxTriangles: " << this->MaxTriangles << "\n";
   os << indent << "NumberOfThreads: " << this->NumberOfThreads << "\n";
+  os << indent << "UseSMPTools: " << (this->UseSMPTools ? "On" : "Off") << "\n";
   os << indent << "NumberOfMCTriangles: " << this->NumberOfMCTriangles << "\n";
   os << indent << "NumberOfRefinedTriangles: " << this->NumberOfRefinedTriangles << "\n";
   os << indent << "NumberOfAmbiguousCells: " << this->NumberOfAmbiguousCells << "\n";

@@ -65,8 +65,9 @@
  * SetReconstructionFilter()).
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
- * parallel over all cores unless NumberOfThreads is set; the output does
- * not depend on the number of threads.
+ * parallel over all cores unless NumberOfThreads is set, or on
+ * vtkSMPTools with UseSMPTools on; the output does not depend on the
+ * number of threads.
  *
  * @warning
  * Refinement can multiply the number of triangles by up to 4^MaxLevel in
@@ -412,6 +413,23 @@ public:
 
   ///@{
   /**
+   * Set/Get whether the library's parallel steps run as vtkSMPTools tasks,
+   * on the backend and thread count the application chose for
+   * vtkSMPTools (TBB's pool, for instance, whose threads persist between
+   * executions), instead of on threads the library starts and joins in
+   * every execution. When on, NumberOfThreads is not used: the volume is
+   * cut for vtkSMPTools::GetEstimatedNumberOfThreads() workers (on the
+   * Sequential backend everything runs on the calling thread). Progress
+   * is reported after the tasks vtkSMPTools runs on the calling thread.
+   * Default off. The output does not depend on it.
+   */
+  vtkSetMacro(UseSMPTools, vtkTypeBool);
+  vtkGetMacro(UseSMPTools, vtkTypeBool);
+  vtkBooleanMacro(UseSMPTools, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
    * Statistics of the last execution, summed over the contour values
    * (maximised for GetMaxLevelReached(), averaged over all output
    * triangles for GetMeanLevel()).
@@ -487,6 +505,7 @@ protected:
   int NormalMode;
   vtkTypeUInt64 MaxTriangles;
   int NumberOfThreads;
+  vtkTypeBool UseSMPTools;
 
   vtkTypeUInt64 NumberOfMCTriangles;
   vtkTypeUInt64 NumberOfRefinedTriangles;

@@ -8,7 +8,8 @@
   from a ProgressEvent observer stops the run with an empty output; errors
   (no scalars, bad ArrayComponent, NaN epsilon, unsupported dimension) are
   reported through vtkErrorMacro with an empty output, and the filter works
-  again afterwards. PrintSelf runs.
+  again afterwards. UseSMPTools gives the same output on every vtkSMPTools
+  backend. PrintSelf runs.
 
 =========================================================================*/
 #include "vtkPreciseMarchingCubes.h"
@@ -16,6 +17,7 @@
 #include "PreciseMCTestUtilities.h"
 
 #include "vtkRTAnalyticSource.h"
+#include "vtkSMPTools.h"
 
 #include <cstdlib>
 #include <sstream>
@@ -187,6 +189,86 @@ int main(int, char*[])
     f->Update();
     Check(obs->Errors > 0 && f->GetOutput()->GetNumberOfPoints() == 0,
       "2D image: error and empty output");
+  }
+
+  // UseSMPTools: the library's tasks on vtkSMPTools give the same output
+  // bits as its own threads, on every backend this VTK has; a progress
+  // observer can still abort when the calling thread runs tasks (TBB).
+  {
+    vtkNew<vtkRTAnalyticSource> big;
+    big->SetWholeExtent(-40, 40, -40, 40, -40, 40); // many slabs
+    auto run = [&](double epsilon, bool smp) {
+      vtkNew<vtkPreciseMarchingCubes> f;
+      f->SetInputConnection(big->GetOutputPort());
+      f->SetValue(0, 180.0);
+      f->SetValue(1, 120.0);
+      f->SetEpsilon(epsilon);
+      f->SetNumberOfThreads(2);
+      f->SetUseSMPTools(smp);
+      f->Update();
+      vtkSmartPointer<vtkPolyData> out = vtkSmartPointer<vtkPolyData>::New();
+      out->DeepCopy(f->GetOutput());
+      return out;
+    };
+    auto same = [](vtkPolyData* a, vtkPolyData* b) {
+      if (a->GetNumberOfPoints() != b->GetNumberOfPoints() ||
+        a->GetNumberOfPolys() != b->GetNumberOfPolys() || a->GetNumberOfPolys() == 0)
+      {
+        return false;
+      }
+      vtkDataArray* pa = a->GetPoints()->GetData();
+      vtkDataArray* pb = b->GetPoints()->GetData();
+      for (vtkIdType i = 0; i < pa->GetNumberOfValues(); ++i)
+      {
+        if (pa->GetComponent(i / 3, static_cast<int>(i % 3)) !=
+          pb->GetComponent(i / 3, static_cast<int>(i % 3)))
+        {
+          return false;
+        }
+      }
+      vtkDataArray* ca = a->GetPolys()->GetConnectivityArray();
+      vtkDataArray* cb = b->GetPolys()->GetConnectivityArray();
+      for (vtkIdType i = 0; i < ca->GetNumberOfValues(); ++i)
+      {
+        if (ca->GetTuple1(i) != cb->GetTuple1(i))
+        {
+          return false;
+        }
+      }
+      return true;
+    };
+    const std::string initial = vtkSMPTools::GetBackend();
+    for (double epsilon : { 0.0, 0.005 })
+    {
+      auto own = run(epsilon, false);
+      for (const char* backend : { "Sequential", "STDThread", "TBB" })
+      {
+        if (!vtkSMPTools::SetBackend(backend))
+        {
+          std::cout << "skip " << backend << " (not built)\n";
+          continue;
+        }
+        vtkSMPTools::Initialize(3);
+        Check(same(own, run(epsilon, true)),
+          std::string("UseSMPTools on ") + backend + ", epsilon " + std::to_string(epsilon) +
+            ": the same output as the library's threads");
+      }
+    }
+    if (vtkSMPTools::SetBackend("TBB"))
+    {
+      vtkSMPTools::Initialize(2);
+      vtkNew<vtkPreciseMarchingCubes> f;
+      f->SetInputConnection(big->GetOutputPort());
+      f->SetValue(0, 180.0);
+      f->SetEpsilon(0.0005);
+      f->UseSMPToolsOn();
+      vtkNew<AbortOnProgress> stop;
+      f->AddObserver(vtkCommand::ProgressEvent, stop);
+      f->Update();
+      Check(stop->Calls > 0 && f->GetOutput()->GetNumberOfPolys() == 0,
+        "UseSMPTools on TBB: a ProgressEvent observer aborts the run");
+    }
+    vtkSMPTools::SetBackend(initial.c_str());
   }
 
   // PrintSelf.

@@ -101,9 +101,14 @@ pub unsafe extern "C" fn pmc_extract(
                 ControlFlow::Continue(())
             }
         };
-        let mesh =
-            crate::extract::extract_index_points(&volume, isovalue, &opts.core, &mut progress)
-                .map_err(failure)?;
+        let mesh = crate::extract::extract_index_points(
+            &volume,
+            isovalue,
+            &opts.core,
+            opts.executor.as_ref().map(|e| e as &dyn crate::Executor),
+            &mut progress,
+        )
+        .map_err(failure)?;
         let handle = into_handle(mesh, volume.origin, volume.spacing);
         // SAFETY: as above.
         unsafe { out_mesh.write(handle) };

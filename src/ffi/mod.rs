@@ -26,6 +26,7 @@
 mod buffer;
 mod enums;
 mod error;
+mod executor;
 mod extract;
 mod measure;
 mod mesh;
@@ -41,6 +42,7 @@ pub use enums::{
     PmcReconstruction, PmcRule, PmcScalarType, PmcTopology,
 };
 pub use error::pmc_last_error_message;
+pub use executor::{pmc_executor_fn, pmc_task_fn};
 pub use extract::pmc_extract;
 pub use measure::{pmc_distance, pmc_measure_distance};
 pub use mesh::{
@@ -51,10 +53,10 @@ pub use mesh::{
 };
 pub use options::{
     pmc_options, pmc_options_free, pmc_options_new, pmc_options_set_epsilon,
-    pmc_options_set_index_offset, pmc_options_set_max_level, pmc_options_set_max_triangles,
-    pmc_options_set_normals, pmc_options_set_progress, pmc_options_set_reconstruction,
-    pmc_options_set_rule, pmc_options_set_threads, pmc_options_set_topology, pmc_progress_fn,
-    PMC_MAX_LEVEL_LIMIT, PMC_MAX_THREADS,
+    pmc_options_set_executor, pmc_options_set_index_offset, pmc_options_set_max_level,
+    pmc_options_set_max_triangles, pmc_options_set_normals, pmc_options_set_progress,
+    pmc_options_set_reconstruction, pmc_options_set_rule, pmc_options_set_threads,
+    pmc_options_set_topology, pmc_progress_fn, PMC_MAX_LEVEL_LIMIT, PMC_MAX_THREADS,
 };
 pub use status::{pmc_status, pmc_status_string, PmcStatus};
 pub use version::pmc_version_string;

@@ -6,6 +6,7 @@ use super::enums::{
     pmc_normals, pmc_reconstruction, pmc_rule, pmc_topology, PmcNormals, PmcReconstruction,
     PmcRule, PmcTopology,
 };
+use super::executor::{pmc_executor_fn, CExecutor};
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
 use crate::Options;
@@ -47,6 +48,8 @@ pub(crate) struct OptionsData {
     pub index_offset: [i64; 3],
     pub progress: pmc_progress_fn,
     pub user_data: *mut c_void,
+    /// The host's executor, if set (`pmc_options_set_executor`).
+    pub executor: Option<CExecutor>,
 }
 
 impl Default for OptionsData {
@@ -56,6 +59,7 @@ impl Default for OptionsData {
             index_offset: [0; 3],
             progress: None,
             user_data: std::ptr::null_mut(),
+            executor: None,
         }
     }
 }
@@ -92,7 +96,7 @@ unsafe fn with_options(
 /// Creates options with the defaults: epsilon 0.01, max level 5, rule
 /// `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
 /// `PMC_NORMALS_NONE`, no triangle cap, all cores, no progress callback,
-/// index offset (0, 0, 0).
+/// no executor (threads of its own), index offset (0, 0, 0).
 ///
 /// Returns a new handle owned by the caller, to be released with
 /// `pmc_options_free`; `NULL` only if an internal error occurred.
@@ -355,6 +359,60 @@ pub unsafe extern "C" fn pmc_options_set_progress(
         } else {
             std::ptr::null_mut()
         };
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { with_options(options, set) }
+}
+
+/// Lends the host's thread pool to later extractions with these options
+/// (see `pmc_executor_fn`): their parallel steps become tasks of
+/// `executor` instead of running on threads `pmc_extract` starts and
+/// joins, and the thread count (`pmc_options_set_threads`) is not used:
+/// the volume is cut for `concurrency` workers, the number of tasks the
+/// host runs at once. `executor = NULL` clears it (the default: threads of
+/// the extraction's own). The output does not depend on it.
+///
+/// With an executor, the progress callback is called after the tasks the
+/// executor happens to run on the thread that called `pmc_extract` (a
+/// pool whose calling thread takes part, as TBB's does, reports a few
+/// times per pass; others only between passes), and stopping takes effect
+/// at the next layer of cells of every running task. An executor that
+/// returns without running every task makes `pmc_extract` fail with
+/// `PMC_STATUS_INVALID_ARGUMENT`.
+///
+/// Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options,
+/// `PMC_STATUS_INVALID_ARGUMENT` for a `concurrency` of 0 or above
+/// `PMC_MAX_THREADS` with a non-`NULL` executor (the options are then
+/// unchanged).
+///
+/// # Safety
+///
+/// As for `pmc_options_set_epsilon`; `executor` must be `NULL` or a
+/// function that honours `pmc_executor_fn`'s contract with
+/// `executor_data` during every later `pmc_extract` using these options.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_options_set_executor(
+    options: *mut pmc_options,
+    executor: pmc_executor_fn,
+    executor_data: *mut c_void,
+    concurrency: u32,
+) -> PmcStatus {
+    let set = |o: &mut OptionsData| {
+        let Some(run) = executor else {
+            o.executor = None;
+            return Ok(());
+        };
+        if concurrency == 0 || concurrency > PMC_MAX_THREADS {
+            return Err(Failure::invalid(format!(
+                "executor concurrency {concurrency} is outside 1..={PMC_MAX_THREADS}"
+            )));
+        }
+        o.executor = Some(CExecutor {
+            run,
+            data: executor_data,
+            concurrency,
+        });
         Ok(())
     };
     // SAFETY: forwarded contract.
