@@ -218,6 +218,24 @@ static inline int meshes_equal(const pmc_mesh *a, const pmc_mesh *b) {
     return 1;
 }
 
+/* A progress callback's log: its calls, the last fraction, whether the
+ * fractions never decreased; the callback asks to stop on call `stop_at`
+ * (1-based; 0 = never). */
+typedef struct {
+    long calls;
+    long stop_at;
+    double last;
+    int monotone;
+} progress_counter;
+
+static inline int count_progress(void *user_data, double fraction) {
+    progress_counter *c = (progress_counter *)user_data;
+    if (c->calls > 0 && fraction < c->last) c->monotone = 0;
+    c->last = fraction;
+    c->calls++;
+    return c->stop_at != 0 && c->calls >= c->stop_at;
+}
+
 /* Number of test iterations: PMC_TEST_ITERATIONS or `dflt`. */
 static inline long test_iterations(long dflt) {
     const char *s = getenv("PMC_TEST_ITERATIONS");

@@ -81,21 +81,6 @@ static void init_pool(pool *p, int threads) {
     p->caller = pthread_self();
 }
 
-typedef struct {
-    long calls;
-    int monotone;
-    double last;
-    long stop_after;
-} progress_log;
-
-static int on_progress(void *user_data, double fraction) {
-    progress_log *log = (progress_log *)user_data;
-    if (log->calls > 0 && fraction < log->last) log->monotone = 0;
-    log->last = fraction;
-    log->calls++;
-    return log->stop_after != 0 && log->calls >= log->stop_after;
-}
-
 static pmc_mesh *extract(const pmc_volume *v, double iso, double eps, pmc_topology topo,
                          pmc_normals normals, uint32_t threads, pool *p) {
     pmc_options *o = pmc_options_new();
@@ -180,11 +165,11 @@ int main(void) {
     for (long stop = 0; stop < 3; stop++) {
         pool p;
         init_pool(&p, 1);
-        progress_log log = {0, 1, 0.0, stop};
+        progress_counter log = {0, stop, 0.0, 1};
         pmc_options *o = pmc_options_new();
         CHECK_STATUS(pmc_options_set_executor(o, run_batch, &p, 2), PMC_STATUS_OK);
         CHECK_STATUS(pmc_options_set_epsilon(o, 0.0005), PMC_STATUS_OK);
-        CHECK_STATUS(pmc_options_set_progress(o, on_progress, &log), PMC_STATUS_OK);
+        CHECK_STATUS(pmc_options_set_progress(o, count_progress, &log), PMC_STATUS_OK);
         pmc_mesh *m = NULL;
         pmc_status s = pmc_extract(&v, 17.3, o, &m);
         if (stop == 0) {

@@ -17,24 +17,9 @@
 
 /* ---- 1. abort at every position ------------------------------------------- */
 
-typedef struct {
-    long calls;
-    long stop_at; /* non-zero return on this call (1-based); 0 = never */
-    double last;
-    int monotone;
-} counter;
-
-static int count_progress(void *user_data, double fraction) {
-    counter *c = (counter *)user_data;
-    if (c->calls > 0 && fraction < c->last) c->monotone = 0;
-    c->last = fraction;
-    c->calls++;
-    return c->stop_at != 0 && c->calls >= c->stop_at;
-}
-
 static void abort_everywhere(const pmc_volume *v, double iso, pmc_options *o, long max_runs,
                              const char *what) {
-    counter c;
+    progress_counter c;
     long stop;
     int completed = 0;
     pmc_mesh *reference = NULL;

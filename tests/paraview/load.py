@@ -35,7 +35,7 @@ def main():
         "NormalMode": "Gradient", "ComputeNormals": 1, "ComputeScalars": 1,
         "ComputeLevels": 0, "InterpolateAttributes": 0, "MaxTriangles": 0,
         "NumberOfThreads": 0, "ArrayComponent": 0, "OutputPointsPrecision": "Default",
-        "ReconstructionFilter": "Trilinear",
+        "ReconstructionFilter": "Trilinear", "UseSMPTools": 0,
     }
     wrong = {k: contour.GetPropertyValue(k) for k, v in defaults.items()
              if contour.GetPropertyValue(k) != v}
