@@ -294,8 +294,8 @@ typedef struct pmc_mesh pmc_mesh;
  *
  * A `pmc_options` may be shared by any number of `pmc_extract` calls,
  * also concurrently from several threads, as long as it is not modified
- * or freed meanwhile (and the progress callback, if any, tolerates
- * concurrent calls).
+ * or freed meanwhile (and the progress callback and the executor, if any,
+ * tolerate concurrent calls).
  */
 typedef struct pmc_options pmc_options;
 

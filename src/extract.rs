@@ -143,8 +143,8 @@ pub fn extract_with_executor(
 /// [`extract_with_progress`] leaving [`Mesh::points`] empty: for callers
 /// that map the index points to world themselves (the C API computes them
 /// on request), so that an extraction does not write 24 bytes a point that
-/// nobody reads.
-/// (on `executor` when given, see [`extract_with_executor`]).
+/// nobody reads. Runs on `executor` when one is given (see
+/// [`extract_with_executor`]).
 pub(crate) fn extract_index_points(
     volume: &Volume<'_>,
     isovalue: f64,

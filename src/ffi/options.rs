@@ -35,8 +35,8 @@ pub type pmc_progress_fn =
 ///
 /// A `pmc_options` may be shared by any number of `pmc_extract` calls,
 /// also concurrently from several threads, as long as it is not modified
-/// or freed meanwhile (and the progress callback, if any, tolerates
-/// concurrent calls).
+/// or freed meanwhile (and the progress callback and the executor, if any,
+/// tolerate concurrent calls).
 pub struct pmc_options {
     _private: [u8; 0],
 }
