@@ -182,6 +182,11 @@ Options ParseArguments(int argc, char* argv[])
       flag();
       o.Version = true;
     }
+    else if (name == "--smp")
+    {
+      flag();
+      o.SMP = true;
+    }
     else if (name == "-q" || name == "--quiet")
     {
       flag();
@@ -347,6 +352,9 @@ options:
       --max-triangles N cap on the output triangles of each isovalue;
                         0 = no cap (default)
       --threads N       worker threads; 0 = all cores (default)
+      --smp             run the library's work as vtkSMPTools tasks, on
+                        VTK's SMP backend (VTK_SMP_BACKEND_IN_USE), with
+                        --threads N of them when N > 0; same output
   -o, --output FILE     write the surface: .vtp, .ply, .stl or .obj. With
                         several volumes (--sample all), one file each:
                         FILE with "-<sample>" before the extension

@@ -23,6 +23,7 @@ struct Options
   int Normals = 1;  // 0 = none, else vtkPreciseMarchingCubes::NormalModes
   unsigned long long MaxTriangles = 0;
   int Threads = 0;
+  bool SMP = false; // --smp: the library's work as vtkSMPTools tasks
 
   std::string Output;   // -o
   std::string Compare;  // --compare PNG

@@ -20,6 +20,7 @@
 #include "vtkPointData.h"
 #include "vtkPolyData.h"
 #include "vtkPreciseMarchingCubes.h"
+#include "vtkSMPTools.h"
 #include "vtkVersion.h"
 #include "vtkXMLImageDataWriter.h"
 
@@ -222,6 +223,7 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   }
   f->SetMaxTriangles(static_cast<vtkTypeUInt64>(o.MaxTriangles));
   f->SetNumberOfThreads(o.Threads);
+  f->SetUseSMPTools(o.SMP);
   f->ComputeScalarsOn();
   f->SetComputeLevels(levels);
 }
@@ -256,6 +258,10 @@ int main(int argc, char* argv[])
       std::cout << "precisemc " << PRECISEMC_APP_VERSION << " (VTK "
                 << vtkVersion::GetVTKVersion() << ")" << std::endl;
       return 0;
+    }
+    if (o.SMP && o.Threads > 0)
+    {
+      vtkSMPTools::Initialize(o.Threads);
     }
 
     // Outputs first: a bad path should not cost an extraction.

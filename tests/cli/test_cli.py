@@ -214,7 +214,7 @@ def help_and_version():
     expect(r.stdout.startswith("usage: precisemc"), "help text")
     for option in ("--value", "--epsilon", "--max-level", "--rule", "--topology", "--filter",
                    "catmull-rom", "bspline-interpolating", "--normals",
-                   "--max-triangles", "--threads", "--output", "--compare", "--distance",
+                   "--max-triangles", "--threads", "--smp", "--output", "--compare", "--distance",
                    "--quiet", "--sample", "--version"):
         expect(option in r.stdout, f"{option} not in --help")
     r = ok("--version")
@@ -332,6 +332,16 @@ def explicit_values_and_filter_options():
     r = ok("--sample=tube", "--rule", "B", "--topology=classic", "--normals", "central",
            "--threads", "1", "--max-level=3", "--epsilon", "0.05")
     expect(table_value(r.stdout, "maxL / meanL") <= 3, "max level not applied")
+    # --smp: the same surface, bit for bit, as the library's own threads.
+    surfaces = []
+    for extra in ((), ("--smp",), ("--smp", "--threads", "2")):
+        out = os.path.join(d, f"smp{len(extra)}.vtp")
+        ok("--sample", "atoms", "--epsilon", "0.003", "-q", "-o", out, *extra)
+        s = read_surface(out)
+        surfaces.append((vtk_to_numpy(s.GetPoints().GetData()).tobytes(),
+                         vtk_to_numpy(s.GetPolys().GetConnectivityArray()).tobytes()))
+    expect(surfaces[0] == surfaces[1] == surfaces[2] and len(surfaces[0][1]) > 0,
+           "--smp changed the surface")
     out = os.path.join(d, "nonormals.vtp")
     ok("--sample", "tube", "--normals", "none", "-o", out)
     expect(read_surface(out).GetPointData().GetNormals() is None, "normals written with none")
