@@ -729,7 +729,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     }
     let mut map: KeyMap<u32> = KeyMap::default();
     let mut local: KeyMap<u32> = KeyMap::default();
-    let mut patch = Patch::default();
+    let mut patch = Patch {
+        pinch_fans: REFINE,
+        ..Patch::default()
+    };
     let mut stack: Vec<Tri> = Vec::with_capacity(64);
     let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);

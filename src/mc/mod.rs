@@ -23,6 +23,10 @@ pub struct Patch {
     pub tris: Vec<[u8; 3]>,
     /// Interior points.
     pub extra: Vec<[f64; 3]>,
+    /// Whether a fan around an interior point may be centred at a pinch
+    /// point of `S_K` (set for refinement; default off: plain Marching
+    /// Cubes keeps the centroid's projection, which costs less).
+    pub pinch_fans: bool,
 }
 
 impl Patch {
@@ -60,7 +64,7 @@ pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &
         return false;
     }
     if topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize] {
-        trilinear::triangles(f, &mut out.tris, &mut out.extra);
+        trilinear::triangles(f, out.pinch_fans, &mut out.tris, &mut out.extra);
         true
     } else {
         classic::triangles(case, &mut out.tris);

@@ -443,14 +443,16 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
 ///
 /// Vertex ids 0..12 are cell edges; id `12 + k` is the interior point
 /// `extra[k]` (local coordinates), added where a fan would lay a triangle
-/// flat in a cell face.
-pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
+/// flat in a cell face. With `pinch`, such a fan may be centred at a pinch
+/// point of `S_K` instead (see [`fan_centre`]; for refinement, which
+/// cannot mend a fan laid across the solid).
+pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
     let decisions = face_decisions(f);
     let loops = loops(f, &decisions);
     match loops.len() {
         0 => return,
         // One loop is one disk, whatever the regions.
-        1 => return disk(f, loops.get(0), out, extra),
+        1 => return disk(f, loops.get(0), pinch, out, extra),
         _ => {}
     }
     let mut uf = regions(f, &decisions);
@@ -480,7 +482,7 @@ pub fn triangles(f: &[f64; 8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>
             stitch(f, loops.get(group[0]), loops.get(group[1]), out);
         } else {
             for &j in &group[..n] {
-                disk(f, loops.get(j), out, extra);
+                disk(f, loops.get(j), pinch, out, extra);
             }
         }
     }
@@ -494,8 +496,9 @@ fn share_face(a: u8, b: u8) -> bool {
 }
 
 /// A disk: a fan from the first loop vertex whose diagonals all cross the
-/// cell's interior, else a fan around an interior vertex on the surface.
-fn disk(f: &[f64; 8], l: &[u8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
+/// cell's interior, else a fan around an interior vertex on the surface
+/// (with `pinch`, see [`fan_centre`]).
+fn disk(f: &[f64; 8], l: &[u8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
     let n = l.len();
     if n == 3 {
         out.push([l[0], l[1], l[2]]);
@@ -510,10 +513,130 @@ fn disk(f: &[f64; 8], l: &[u8], out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]
         }
     }
     let c = 12 + extra.len() as u8;
-    extra.push(interior_point(f, l));
+    extra.push(if pinch {
+        fan_centre(f, l)
+    } else {
+        interior_point(f, l)
+    });
     for k in 0..n {
         out.push([c, l[k], l[(k + 1) % n]]);
     }
+}
+
+/// Where a fan over loop `l` takes its interior vertex: [`interior_point`]
+/// unless some triangle of its fan faces against `S_K`, else whichever of
+/// the cell's *pinch points* gives the fan that faces best (see
+/// [`fan_facing`] and [`pinch_points`]).
+///
+/// A loop can bound a surface of two sheets joined by a narrow bridge
+/// (where the inside region pinches off towards a corner barely above the
+/// isovalue): the centroid's projection lands on one sheet and the spokes
+/// to the other sheet's crossings cut across the solid. Refinement cannot
+/// bring such triangles onto `S_K` (their split points fall on the other
+/// sheet at every level, and the middle child stays as large as its
+/// parent): on the trefoil tube a level-10 triangle stayed 0.40 cells
+/// away. A centre at the bridge's waist makes every spoke follow a sheet.
+fn fan_centre(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
+    use glam::DVec3;
+    let first = DVec3::from_array(interior_point(f, l));
+    let (points, n) = pinch_points(f);
+    if n == 0 {
+        return first.to_array();
+    }
+    let mut best = (fan_facing(f, first, l), first);
+    if best.0 <= 0.0 {
+        return first.to_array();
+    }
+    for &p in &points[..n] {
+        let score = fan_facing(f, p, l);
+        if score < best.0 {
+            best = (score, p);
+        }
+    }
+    best.1.to_array()
+}
+
+/// The points of `S_K` strictly inside the cell where a slice across one
+/// axis has its saddle on the isovalue: there the slice's section of
+/// `S_K` is two crossing lines, the waist of a bridge between two sheets
+/// (the same heights as the body-saddle events of the region sweep, here
+/// along all three axes). At most two per axis; exact up to rounding.
+fn pinch_points(f: &[f64; 8]) -> ([glam::DVec3; 6], usize) {
+    use glam::DVec3;
+    let value = |p: [u8; 3]| {
+        let k = CORNERS.iter().position(|c| *c == p).unwrap();
+        f[k]
+    };
+    let mut out = [DVec3::ZERO; 6];
+    let mut n = 0;
+    for axis in 0..3 {
+        let (ua, va) = ((axis + 1) % 3, (axis + 2) % 3);
+        // Slice corners in cyclic order over (u, v): values at the slice's
+        // foot (a) and their change across the cell (b).
+        let (mut a, mut b) = ([0.0f64; 4], [0.0f64; 4]);
+        for (i, (u, v)) in [(0u8, 0u8), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+            let mut p = [0u8; 3];
+            p[ua] = u;
+            p[va] = v;
+            a[i] = value(p);
+            p[axis] = 1;
+            b[i] = value(p) - a[i];
+        }
+        let qa = b[0] * b[2] - b[1] * b[3];
+        let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
+        let qc = a[0] * a[2] - a[1] * a[3];
+        let (roots, n_roots) = quadratic_roots(qa, qb, qc);
+        for &t in &roots[..n_roots] {
+            if !(t > 0.0 && t < 1.0) {
+                continue;
+            }
+            let g: [f64; 4] = std::array::from_fn(|i| a[i] + t * b[i]);
+            let d = g[0] - g[1] + g[2] - g[3];
+            if d == 0.0 {
+                continue;
+            }
+            let (u, v) = ((g[0] - g[3]) / d, (g[0] - g[1]) / d);
+            if u > 0.0 && u < 1.0 && v > 0.0 && v < 1.0 {
+                let mut p = DVec3::ZERO;
+                p[axis] = t;
+                p[ua] = u;
+                p[va] = v;
+                out[n] = p;
+                n += 1;
+            }
+        }
+    }
+    (out, n)
+}
+
+/// How badly the fan around `c` over loop `l` faces: the largest cosine
+/// between a fan triangle's normal and the gradient of the interpolant at
+/// its corners and centroid. The fan's triangles point their normals
+/// against the gradient where they follow `S_K` (-1 at best); a positive
+/// value means some triangle crosses to a part of `S_K` facing the other
+/// way.
+fn fan_facing(f: &[f64; 8], c: glam::DVec3, l: &[u8]) -> f64 {
+    use glam::DVec3;
+    let mut worst = -1.0f64;
+    let n = l.len();
+    for k in 0..n {
+        let a = DVec3::from_array(crossing(f, l[k]));
+        let b = DVec3::from_array(crossing(f, l[(k + 1) % n]));
+        let normal = (a - c).cross(b - c);
+        let nl = normal.length();
+        // A triangle without area (or NaN) faces no way: worst.
+        if nl.is_nan() || nl <= 0.0 {
+            return 1.0;
+        }
+        for q in [c, a, b, (a + b + c) / 3.0] {
+            let g = crate::filter::trilinear_gradient(f, q);
+            let gl = g.length();
+            if gl > 0.0 {
+                worst = worst.max(normal.dot(g) / (nl * gl));
+            }
+        }
+    }
+    worst
 }
 
 /// The centroid of a loop's crossings, moved onto the surface: along the
