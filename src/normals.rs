@@ -35,7 +35,18 @@ fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
     let len = w.length();
     if len > 0.0 && len.is_finite() {
         let n = w / len;
-        [n.x as f32, n.y as f32, n.z as f32]
+        // A component below float32's resolution of a unit vector is
+        // rounding noise (at a pinch point the gradient's in-slice part
+        // vanishes): flushed to zero, so that the normal does not depend
+        // on how the point's position rounded (an extent not at zero).
+        let flush = |c: f64| {
+            if c.abs() < f64::from(f32::EPSILON) {
+                0.0
+            } else {
+                c as f32
+            }
+        };
+        [flush(n.x), flush(n.y), flush(n.z)]
     } else {
         [0.0, 0.0, 0.0]
     }

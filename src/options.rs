@@ -31,7 +31,10 @@ pub enum Rule {
     B,
 }
 
-/// Which normals to compute for the output points.
+/// Which normals to compute for the output points. Unit vectors in
+/// float32; a component smaller than `f32::EPSILON` is written as 0 (it is
+/// rounding noise, and would otherwise depend on how the point's position
+/// rounded, e.g. for an extent not starting at 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum NormalMode {
     /// No normals.
