@@ -364,10 +364,7 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
             n_events += 1;
         }
     }
-    let qa = b[0] * b[2] - b[1] * b[3];
-    let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
-    let qc = a[0] * a[2] - a[1] * a[3];
-    let (roots, n_roots) = quadratic_roots(qa, qb, qc);
+    let (roots, n_roots) = saddle_heights(a, b);
     for &r in &roots[..n_roots] {
         if r > 0.0 && r < 1.0 {
             buf[n_events] = r;
@@ -409,6 +406,18 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
         uf.union(end(p), end(q));
     }
     uf
+}
+
+/// Heights `t` along a sweep axis where the slice across it has its
+/// saddle on the isovalue: the slice's corner values, in cyclic order, are
+/// `a + t b` (a bilinear face's saddle value is zero exactly when its
+/// diagonal products agree, `g0 g2 = g1 g3`, a quadratic in `t`). Any real
+/// roots; the callers keep those in (0, 1).
+fn saddle_heights(a: [f64; 4], b: [f64; 4]) -> ([f64; 2], usize) {
+    let qa = b[0] * b[2] - b[1] * b[3];
+    let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
+    let qc = a[0] * a[2] - a[1] * a[3];
+    quadratic_roots(qa, qb, qc)
 }
 
 /// Real roots of `a t^2 + b t + c` (any that exist; degenerate cases give
@@ -582,10 +591,7 @@ fn pinch_points(f: &[f64; 8]) -> ([glam::DVec3; 6], usize) {
             p[axis] = 1;
             b[i] = value(p) - a[i];
         }
-        let qa = b[0] * b[2] - b[1] * b[3];
-        let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
-        let qc = a[0] * a[2] - a[1] * a[3];
-        let (roots, n_roots) = quadratic_roots(qa, qb, qc);
+        let (roots, n_roots) = saddle_heights(a, b);
         for &t in &roots[..n_roots] {
             if !(t > 0.0 && t < 1.0) {
                 continue;
