@@ -385,12 +385,19 @@ def plan(vols, quick):
     scal = [n for n in vols if n.startswith("smooth") and n.endswith("_f32")]
     for name in scal:
         v = vols[name]
-        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=3 if v["dims"][0] >= 512 else 7,
+        # As many calls as the speed rows, and the FlyingEdges and
+        # PreciseMC-off rows in interleaved rounds too: at 64^3-128^3 a
+        # call takes 1-5 ms, and one round of seven calls, the first ones
+        # paying for fresh memory, left ratios swinging up to 1.8x.
+        reps = 3 if v["dims"][0] >= 512 else reps_for(v)
+        base = dict(vol=name, path=v["path"], iso=v["iso"], reps=reps,
                     measure_cap=0, density=3, scaling=True)
-        cfgs.append(dict(base, kind="fe", label="vtkFlyingEdges3D 2T TBB", threads=2))
-        cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T", eps=0.0, threads=2))
+        cfgs.append(dict(base, kind="fe", label="vtkFlyingEdges3D 2T TBB", threads=2,
+                         rounds=rounds))
+        cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T", eps=0.0, threads=2,
+                         rounds=rounds))
         cfgs.append(dict(base, kind="pmc", label="PreciseMC off trilinear 2T SMP", eps=0.0,
-                         threads=2, smp_tools=True))
+                         threads=2, smp_tools=True, rounds=rounds))
         if not quick:
             cfgs.append(dict(base, kind="mc", label="vtkMarchingCubes", threads=1))
             cfgs.append(dict(base, kind="pmc", label="PreciseMC A1 eps 0.01 2T", rule="A1",
