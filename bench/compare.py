@@ -521,7 +521,7 @@ def fastest_fe(rs):
     return fe
 
 
-def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
+def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, reruns=()):
     lines = []
     add = lines.append
     add("# PreciseMC against VTK\n")
@@ -530,8 +530,12 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None):
         "(the machine is shared: compare the ratios, measured side by side).  ")
     add(f"Mode: {'quick' if quick else 'full'}; total run {elapsed:.0f} s; "
         f"{date or time.strftime('%Y-%m-%d')}.\n")
-    add("Times are the median of 7 runs of `Update()` (11 on the volumes under 256^3 "
-        "outside the scaling runs; 3 in the quick mode and for the scaling runs at 512^3; "
+    for rr in reruns:
+        add(f"Re-run alone with `--only` ({rr['date']}, load {rr['load']:.2f}, {rr['seconds']:.0f} s): "
+            f"{', '.join(rr['volumes'])}; their rows (speed, accuracy and their ratios) come "
+            "from that run, the other volumes' from the run above.\n")
+    add("Times are the median of 7 runs of `Update()` (11 on the volumes under 256^3; "
+        "3 in the quick mode and at 512^3; "
         f"the FlyingEdges and PreciseMC-off rows: {SPEED_ROUNDS} rounds of them, interleaved, "
         "median over all rounds' calls, outside the quick mode), "
         "no normals, gradients or scalars in any filter. Memory: peak RSS (VmHWM) of the "
@@ -743,6 +747,10 @@ def main():
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     ap.add_argument("--report-only", action="store_true",
                     help="rebuild results.md and the plots from OUT/results.json")
+    ap.add_argument("--only", default=None, metavar="VOL[,VOL...]",
+                    help="run only these volumes' configurations (names as in results.md, "
+                    "e.g. ml,brain_epi) and replace their rows in OUT/results.json, "
+                    "keeping the other volumes' rows of the earlier run")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
@@ -753,13 +761,30 @@ def main():
         with open(os.path.join(out, "results.json")) as f:
             saved = json.load(f)
         report(saved["volumes"], saved["results"], out, saved["quick"], saved["seconds"],
-               saved.get("machine"), saved.get("load"), saved.get("date"))
+               saved.get("machine"), saved.get("load"), saved.get("date"),
+               saved.get("reruns", ()))
         plots(saved["volumes"], saved["results"], out)
         return 0
     start = time.perf_counter()
     load = os.getloadavg()[0]
     vols = prepare_volumes(args.quick, args.tool)
     cfgs = plan(vols, args.quick)
+    kept = []
+    if args.only:
+        only = set(args.only.split(","))
+        unknown = only - set(vols)
+        if unknown:
+            print(f"bench: unknown volume(s) {', '.join(sorted(unknown))}; "
+                  f"known: {', '.join(vols)}", file=sys.stderr)
+            return 2
+        with open(os.path.join(out, "results.json")) as f:
+            saved = json.load(f)
+        if saved["quick"] != args.quick:
+            print("bench: --only must match the earlier run's mode (--quick or not)",
+                  file=sys.stderr)
+            return 2
+        kept = [r for r in saved["results"] if r["vol"] not in only]
+        cfgs = [c for c in cfgs if c["vol"] in only]
     env = dict(os.environ)
     results = []
     for i, cfg in enumerate(cfgs):
@@ -772,11 +797,21 @@ def main():
                  + (f"  max {d['max']:.4f} mean {d['mean']:.5f}" if d else "")), flush=True)
     more_rounds(cfgs, results, env)
     verify_maxima(results, env)
+    # The rows of the volumes not re-run, in plan order around the new ones.
+    order = {name: i for i, name in enumerate(vols)}
+    results = sorted(kept + results, key=lambda r: (r.get("scaling", False), order[r["vol"]]))
     elapsed = time.perf_counter() - start
+    run = dict(seconds=elapsed, load=load, date=time.strftime("%Y-%m-%d"))
+    reruns = []
+    if args.only:
+        # The header keeps the full run's figures; this run is listed apart.
+        reruns = saved.get("reruns", []) + [dict(run, volumes=sorted(only))]
+        run = dict(seconds=saved["seconds"], load=saved["load"], date=saved["date"])
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(dict(volumes=vols, results=results, machine=machine(), quick=args.quick,
-                       seconds=elapsed, load=load, date=time.strftime("%Y-%m-%d")), f, indent=1)
-    report(vols, results, out, args.quick, elapsed, load=load)
+                       reruns=reruns, **run), f, indent=1)
+    report(vols, results, out, args.quick, run["seconds"], load=run["load"], date=run["date"],
+           reruns=reruns)
     plots(vols, results, out)
     print(f"bench: {len(results)} configurations in {elapsed:.0f} s; results in {out}")
     failed = [r for r in results if "error" in r]
