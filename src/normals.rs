@@ -37,8 +37,9 @@ fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
         let n = w / len;
         // A component below float32's resolution of a unit vector is
         // rounding noise (at a pinch point the gradient's in-slice part
-        // vanishes): flushed to zero, so that the normal does not depend
-        // on how the point's position rounded (an extent not at zero).
+        // vanishes): flushed to zero, so that its sign does not depend on
+        // how the point's position rounded (an extent not at zero; the
+        // other components can still round to a neighbouring float32).
         let flush = |c: f64| {
             if c.abs() < f64::from(f32::EPSILON) {
                 0.0

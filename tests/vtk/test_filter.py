@@ -136,7 +136,11 @@ def test_extent_not_at_zero(rng):
     assert np.abs(p1 - (p0 + np.array(start) * spacing)).max() < 1e-9
     n0 = vtk_to_numpy(at_zero.GetOutput().GetPointData().GetNormals())
     n1 = vtk_to_numpy(moved.GetOutput().GetPointData().GetNormals())
-    assert np.array_equal(n0, n1)
+    # Normals are evaluated at the global index point, whose last bits
+    # depend on the extent start (100 + t keeps fewer bits of t than t
+    # alone): a component can round to the neighbouring float32.
+    assert np.abs(n0 - n1).max() <= 4 * np.finfo(np.float32).eps
+    assert np.mean(n0 == n1) > 0.99
 
 
 def rotation(axis, angle):
