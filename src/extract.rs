@@ -24,6 +24,7 @@ use crate::diagonals::choose_diagonals;
 use crate::executor::Executor;
 use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
+use crate::helpers::with_helpers;
 use crate::layers::{self, LayerScratch, ScratchPool};
 use crate::mc::{cell_triangles_of_case, Patch};
 use crate::memory::advise_huge_pages;
@@ -95,7 +96,8 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// then about every 20 ms while workers run, and last with 1.0 on success.
 /// (Plain Marching Cubes of up to 4 Mi cells on one thread, a few
 /// milliseconds of work, runs on the calling thread with no call in
-/// between.)
+/// between; on several threads, progress is reported after each slab of
+/// cell layers the calling thread contours itself.)
 /// Returning `ControlFlow::Break(())` stops the extraction within a few
 /// milliseconds; it then returns [`Error::Aborted`].
 pub fn extract_with_progress(
@@ -284,10 +286,14 @@ impl Reporter<'_> {
 pub const MAX_THREADS: usize = 4096;
 
 /// With refinement off, the fewest cells a slab gets. Plain Marching Cubes
-/// costs a few nanoseconds a cell, evenly spread, so a smaller slab costs
-/// more in its own scratch buffers, thread start-up and welding at its
-/// planes than it gains in balance.
-const MIN_CELLS_PER_SLAB: u64 = 1 << 18;
+/// costs a few nanoseconds a cell, so a smaller slab costs more in its own
+/// scratch buffers, a helper thread's start-up and welding at its planes
+/// than it gains. (Through VTK with 2 threads, interleaved with
+/// vtkFlyingEdges3D: the EPI scan 128x96x24 took 2.2x its time in one
+/// slab, 1.6-1.7x in six; the wavy sphere at 64^3 2.1x in one, 1.5x in
+/// six; the 48x48x20 tube and the 40^3 atoms, a few thousand triangles,
+/// lost 0.05-0.2 ms to a helper thread in two or more.)
+const MIN_CELLS_PER_SLAB: u64 = 1 << 15;
 
 /// [`MIN_CELLS_PER_SLAB`] on a host's executor: no thread starts, so
 /// smaller slabs pay (Marschner-Lobb 41^3 on TBB with 2 threads, through
@@ -408,6 +414,12 @@ fn run<T: Scalar>(
     }
     if let Some(ex) = how.executor {
         return run_on(Exec::External(ex));
+    }
+    // Plain Marching Cubes on several threads: a few milliseconds on a
+    // small volume, which helper threads next to the calling one share at
+    // less cost than a pool (see `helpers`).
+    if !refine && threads > 1 {
+        return with_helpers(threads, |h| run_on(Exec::External(h)));
     }
     // A scoped pool: its threads are joined before the call returns, so no
     // thread outlives it (a host may unload the library right after).
@@ -1537,8 +1549,10 @@ mod tests {
 
     #[test]
     fn slab_counts() {
-        // Refinement off: no slab under the minimum, at least one.
-        assert_eq!(slab_count(24, 294_912, 2, false, MIN_CELLS_PER_SLAB, 1), 1);
+        // Refinement off: no slab under the minimum, at least one, and
+        // whole shares for the workers (9 slabs' worth on 2: 8).
+        assert_eq!(slab_count(24, 60_000, 2, false, MIN_CELLS_PER_SLAB, 1), 1);
+        assert_eq!(slab_count(24, 294_912, 2, false, MIN_CELLS_PER_SLAB, 1), 8);
         assert_eq!(
             slab_count(255, 255u64.pow(3), 2, false, MIN_CELLS_PER_SLAB, 1),
             16

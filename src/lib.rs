@@ -56,6 +56,7 @@ mod assemble;
 mod diagonals;
 mod extract;
 mod flat_map;
+mod helpers;
 mod layers;
 mod memory;
 mod nearest;

@@ -1,5 +1,6 @@
 //! Where the parallel steps of one extraction run: on its scoped thread
-//! pool, on a host's [`Executor`], or all on the calling thread. Starting
+//! pool, on an [`Executor`] (a host's, or the helper threads of
+//! `crate::helpers`), or all on the calling thread. Starting
 //! and joining a pool thread, and handing work to it and back, costs about
 //! 0.1 ms a call: more than contouring a small volume. Whichever runs
 //! them, the steps produce the same values in the same order, so the
