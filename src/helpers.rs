@@ -197,12 +197,16 @@ mod tests {
 
     #[test]
     fn helpers_share_the_work_of_slow_tasks() {
-        // Tasks that sleep: with 3 workers, more than one thread runs them.
+        // Each task waits (up to 5 s, however loaded the machine) until a
+        // second thread has run one: with 3 workers a helper joins.
         let ids = Mutex::new(std::collections::HashSet::new());
+        let start = std::time::Instant::now();
         with_helpers(3, |h| {
             h.run(12, &|_| {
-                std::thread::sleep(std::time::Duration::from_millis(2));
                 ids.lock().unwrap().insert(std::thread::current().id());
+                while ids.lock().unwrap().len() < 2 && start.elapsed().as_secs() < 5 {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
             });
         });
         assert!(ids.into_inner().unwrap().len() > 1);
