@@ -616,6 +616,18 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
 pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue, const double *points, uint64_t point_count, const int64_t *triangles, uint64_t triangle_count, uint32_t density, struct pmc_distance *out);
 
 /**
+ * Frees the buffers the library keeps between extractions for reuse and
+ * returns their size in bytes. Repeated extractions write into memory
+ * that earlier ones used (the slabs' points and triangles, the edge
+ * caches, and the arrays of meshes passed to `pmc_mesh_free` or
+ * `pmc_buffer_free`) rather than into fresh pages; at most 64 MiB is
+ * kept, process-wide. Call this after a burst of extractions when the
+ * memory is wanted elsewhere. Thread-safe; extractions running meanwhile
+ * are not affected.
+ */
+size_t pmc_release_memory(void);
+
+/**
  * Number of points; 0 for `NULL`.
  *
  * # Safety

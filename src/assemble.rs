@@ -16,6 +16,7 @@ use crate::extract::{key, KeyMap, SlabOut};
 use crate::memory::reserve;
 use crate::mesh::{Mesh, Stats};
 use crate::par::Exec;
+use crate::recycle::{self, Bin};
 use crate::refine::Counters;
 use crate::volume::Volume;
 use crate::Error;
@@ -80,7 +81,7 @@ pub(crate) fn assemble(
     let mut index_points = if n == 1 {
         Vec::new()
     } else {
-        zeroed::<[f64; 3]>(exec, fresh.iter().sum())?
+        zeroed(exec, &recycle::POINTS, fresh.iter().sum())?
     };
     let mut remaps: Vec<Vec<u64>> = if n == 1 {
         vec![Vec::new()]
@@ -98,7 +99,8 @@ pub(crate) fn assemble(
                 }
                 return Vec::new();
             }
-            let mut remap = Vec::with_capacity(o.verts.len());
+            let mut remap = recycle::REMAPS.take(o.verts.len());
+            remap.reserve_exact(o.verts.len());
             let (mut l, mut w) = (0, 0);
             for (i, v) in o.verts.iter().enumerate() {
                 if l < link.len() && link[l].0 as usize == i {
@@ -127,11 +129,11 @@ pub(crate) fn assemble(
     // triangle would have no area and its edges would cancel in pairs, so
     // it is dropped below without opening the surface).
     let counts: Vec<usize> = outs.iter().map(|o| o.tris.len()).collect();
-    let mut triangles = zeroed::<[u64; 3]>(exec, counts.iter().sum())?;
+    let mut triangles = zeroed(exec, &recycle::MESH_TRIS, counts.iter().sum())?;
     let mut levels = if n == 1 {
         std::mem::take(&mut outs[0].levels)
     } else {
-        zeroed::<u8>(exec, triangles.len())?
+        zeroed(exec, &recycle::LEVELS, triangles.len())?
     };
     let tri_starts = offsets(&counts);
     let items = outs
@@ -164,13 +166,22 @@ pub(crate) fn assemble(
             }
             (cand, degenerate)
         })?;
-    drop(remaps);
-    if n == 1 {
-        let verts = std::mem::take(&mut outs[0].verts);
-        index_points = verts.into_iter().map(|v| v.to_array()).collect();
-        index_points.shrink_to_fit();
+    for r in remaps {
+        recycle::REMAPS.give(r);
     }
-    drop(outs);
+    if n == 1 {
+        // The slab's points become the mesh's, in place; a large slack
+        // (the slab reserves for a generous guess) is given back.
+        index_points = recycle::dvec3_as_points(std::mem::take(&mut outs[0].verts));
+        if index_points.capacity() > 2 * index_points.len() + (1 << 16) {
+            index_points.shrink_to_fit();
+        }
+    }
+    for o in outs {
+        recycle::POINTS.give(recycle::dvec3_as_points(o.verts));
+        recycle::SLAB_TRIS.give(o.tris);
+        recycle::LEVELS.give(o.levels);
+    }
     let mut candidates = Vec::new();
     let mut degenerate = Vec::new();
     for (c, d) in found {
@@ -182,6 +193,7 @@ pub(crate) fn assemble(
     // World coordinates.
     let mut points = Vec::new();
     if world_points {
+        points = recycle::POINTS.take(index_points.len());
         reserve(&mut points, index_points.len())?;
         exec.extend(&mut points, &index_points, |p| volume.world_point(*p))?;
     }
@@ -373,10 +385,14 @@ fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
         .collect()
 }
 
-/// `n` default values, written on `exec`; an error when the memory is
-/// not available.
-fn zeroed<T: Default + Clone + Send + Sync>(exec: Exec<'_>, n: usize) -> Result<Vec<T>, Error> {
-    let mut v = Vec::new();
+/// `n` default values, in a buffer from `bin` when it keeps one, written
+/// on `exec`; an error when the memory is not available.
+fn zeroed<T: Default + Clone + Send + Sync>(
+    exec: Exec<'_>,
+    bin: &Bin<Vec<T>>,
+    n: usize,
+) -> Result<Vec<T>, Error> {
+    let mut v = bin.take(n);
     reserve(&mut v, n)?;
     exec.fill_default(&mut v, n)?;
     Ok(v)

@@ -33,6 +33,7 @@ use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
 use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
+use crate::recycle;
 use crate::refine::{
     faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
     Counters, EdgeCache, Refinable, Refiner, Tri,
@@ -733,8 +734,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         // growing by doubling copies every buffer into fresh memory, and
         // those page faults were two thirds of a small volume's. Pages
         // left unwritten cost nothing; a failed reservation just leaves
-        // the growth to the pushes.
+        // the growth to the pushes. Buffers kept since an earlier call
+        // are already mapped (see crate::recycle).
         let tris = surface_guess(sh.cell_dims, k1 - k0);
+        out.tris = recycle::SLAB_TRIS.take(tris);
+        out.levels = recycle::LEVELS.take(tris);
+        out.verts = recycle::points_as_dvec3(recycle::POINTS.take(tris / 2));
         let _ = out.tris.try_reserve_exact(tris);
         let _ = out.levels.try_reserve_exact(tris);
         let _ = out.verts.try_reserve_exact(tris / 2);

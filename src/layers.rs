@@ -11,6 +11,8 @@
 
 use std::sync::Mutex;
 
+use crate::recycle::SCRATCH;
+
 /// An empty cache entry (its stamp, `u32::MAX`, is never handed out).
 pub(crate) const EMPTY: u64 = u64::MAX;
 
@@ -45,6 +47,18 @@ pub(crate) struct LayerScratch {
     pub cases: Vec<u8>,
     /// The first stamp not handed out yet.
     next_stamp: u32,
+    /// The cell layer size the buffers are laid out for.
+    dims: (usize, usize),
+}
+
+impl crate::recycle::Held for LayerScratch {
+    fn bytes(&self) -> usize {
+        let (nx, ny) = self.dims;
+        let layer = (ny + 1) * (nx + 1);
+        2 * layer + 2 * (ny + 1) + nx + 8 * (2 * nx * (ny + 1) + 2 * (nx + 1) * ny + layer)
+    }
+    // Nothing to clear: entries of earlier calls carry stamps that never
+    // match again (the stamps go on from call to call).
 }
 
 impl LayerScratch {
@@ -64,6 +78,7 @@ impl LayerScratch {
                 edge_z: filled(z_edges, EMPTY)?,
                 cases: filled(nx, 0)?,
                 next_stamp: 0,
+                dims: (nx, ny),
             })
         })();
         s.ok_or(bytes)
@@ -91,7 +106,9 @@ impl LayerScratch {
 }
 
 /// The scratch buffers of one extraction's workers: at most one set per
-/// worker running at a time is ever allocated.
+/// worker running at a time is ever allocated, or taken from those kept
+/// since earlier calls ([`crate::recycle`]), to which they return when the
+/// pool is dropped.
 pub(crate) struct ScratchPool {
     nx: usize,
     ny: usize,
@@ -112,7 +129,8 @@ impl ScratchPool {
     /// not be allocated.
     pub fn take(&self) -> Result<LayerScratch, usize> {
         let reused = self.free.lock().unwrap_or_else(|e| e.into_inner()).pop();
-        match reused {
+        let dims = (self.nx, self.ny);
+        match reused.or_else(|| SCRATCH.take_where(|s| s.dims == dims)) {
             Some(s) => Ok(s),
             None => LayerScratch::new(self.nx, self.ny),
         }
@@ -121,6 +139,15 @@ impl ScratchPool {
     /// Returns buffers to the pool.
     pub fn give(&self, s: LayerScratch) {
         self.free.lock().unwrap_or_else(|e| e.into_inner()).push(s);
+    }
+}
+
+impl Drop for ScratchPool {
+    fn drop(&mut self) {
+        let free = std::mem::take(self.free.get_mut().unwrap_or_else(|e| e.into_inner()));
+        for s in free {
+            SCRATCH.give(s);
+        }
     }
 }
 
@@ -149,8 +176,9 @@ mod tests {
     fn stamps_are_fresh_until_they_run_out_then_caches_clear() {
         let pool = ScratchPool::new(3, 2);
         let mut s = pool.take().unwrap();
-        assert_eq!(s.stamps(5), 0);
-        assert_eq!(s.stamps(4), 5);
+        // (The set may come from an earlier extraction, its stamps gone on.)
+        let first = s.stamps(5);
+        assert_eq!(s.stamps(4), first + 5);
         s.edge_x[0][1] = entry(6, 3);
         pool.give(s);
         // The pool hands the same buffers back, entries and stamps kept.

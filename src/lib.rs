@@ -62,6 +62,7 @@ mod memory;
 mod nearest;
 mod normals;
 mod par;
+mod recycle;
 mod refine;
 #[cfg(test)]
 mod test_rng;
@@ -71,6 +72,7 @@ pub use executor::{Executor, SerialExecutor};
 pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};
 pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
+pub use recycle::{release_retained_memory, retained_bytes, RETAIN_LIMIT};
 pub use volume::{Samples, Scalar, ScalarType, Volume};
 
 /// Highest accepted `max_level`. Each level can multiply a triangle by 4,

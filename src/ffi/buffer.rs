@@ -52,7 +52,9 @@ pub unsafe extern "C" fn pmc_buffer_free(buffer: *mut std::ffi::c_void) {
         if let Some((ptr, len, cap)) = entry {
             // SAFETY: the entry was recorded by `hand_out` from a live
             // vector that was not dropped, and is removed here, once.
-            drop(unsafe { Vec::from_raw_parts(ptr as *mut [u64; 3], len, cap) });
+            let v = unsafe { Vec::from_raw_parts(ptr as *mut [u64; 3], len, cap) };
+            // Kept for the next extraction (see `pmc_release_memory`).
+            crate::recycle::MESH_TRIS.give(v);
         }
     })
 }

@@ -409,7 +409,14 @@ pub unsafe extern "C" fn pmc_mesh_free(mesh: *mut pmc_mesh) {
         if !mesh.is_null() {
             // SAFETY: per the contract, `mesh` came from `into_handle` and
             // is freed once.
-            drop(unsafe { Box::from_raw(mesh.cast::<Handle>()) });
+            let h = unsafe { Box::from_raw(mesh.cast::<Handle>()) };
+            // Its arrays are kept for the next extraction (see
+            // `pmc_release_memory`).
+            let Handle { mesh, world, .. } = *h;
+            crate::recycle::give_mesh(mesh);
+            if let Some(w) = world.into_inner() {
+                crate::recycle::POINTS.give(w);
+            }
         }
     })
 }

@@ -29,6 +29,7 @@ mod error;
 mod executor;
 mod extract;
 mod measure;
+mod memory;
 mod mesh;
 mod options;
 mod panic;
@@ -45,6 +46,7 @@ pub use error::pmc_last_error_message;
 pub use executor::{pmc_executor_fn, pmc_task_fn};
 pub use extract::pmc_extract;
 pub use measure::{pmc_distance, pmc_measure_distance};
+pub use memory::pmc_release_memory;
 pub use mesh::{
     pmc_mesh, pmc_mesh_cells_refined_on_faces_only, pmc_mesh_free, pmc_mesh_index_points,
     pmc_mesh_normals, pmc_mesh_point_count, pmc_mesh_points, pmc_mesh_recut_polygons,
