@@ -51,11 +51,18 @@ pub(crate) struct LayerScratch {
     dims: (usize, usize),
 }
 
+/// Bytes of the buffers of a [`LayerScratch`] for layers of `nx` x `ny`
+/// cells (the inside bits and the edge caches; the per-row flags and case
+/// indices are a few bytes a row).
+fn scratch_bytes(nx: usize, ny: usize) -> usize {
+    let layer = (ny + 1) * (nx + 1);
+    let (x_edges, y_edges, z_edges) = (nx * (ny + 1), (nx + 1) * ny, layer);
+    2 * layer + 8 * (2 * x_edges + 2 * y_edges + z_edges)
+}
+
 impl crate::recycle::Held for LayerScratch {
     fn bytes(&self) -> usize {
-        let (nx, ny) = self.dims;
-        let layer = (ny + 1) * (nx + 1);
-        2 * layer + 2 * (ny + 1) + nx + 8 * (2 * nx * (ny + 1) + 2 * (nx + 1) * ny + layer)
+        scratch_bytes(self.dims.0, self.dims.1)
     }
     // Nothing to clear: entries of earlier calls carry stamps that never
     // match again (the stamps go on from call to call).
@@ -68,7 +75,6 @@ impl LayerScratch {
         let nxs = nx + 1;
         let layer = (ny + 1) * nxs;
         let (x_edges, y_edges, z_edges) = (nx * (ny + 1), nxs * ny, nxs * (ny + 1));
-        let bytes = 2 * layer + 8 * (2 * x_edges + 2 * y_edges + z_edges);
         let s = (|| {
             Some(LayerScratch {
                 insides: [filled(layer, 0)?, filled(layer, 0)?],
@@ -81,7 +87,7 @@ impl LayerScratch {
                 dims: (nx, ny),
             })
         })();
-        s.ok_or(bytes)
+        s.ok_or(scratch_bytes(nx, ny))
     }
 
     /// Reserves `n` consecutive stamps (`n < u32::MAX`) and returns the
