@@ -24,6 +24,13 @@ pub trait ReconstructionFilter: Sync {
     /// filter brackets one there. Default: `false`.
     const LINEAR_ON_EDGES: bool = false;
 
+    /// Whether the filter is multilinear over each whole cell (trilinear):
+    /// then, on any axis-aligned box in a cell, its value at the midpoint
+    /// of an edge, of a face or of the box is the mean of the two, four
+    /// or eight corner values around it, and searches that halve boxes
+    /// need not evaluate it there. Default: `false`.
+    const MULTILINEAR: bool = false;
+
     /// Loads cell `(i, j, k)` (local cell indices). `None` when a sample
     /// the cell needs is not finite.
     fn load(&self, cell: [usize; 3]) -> Option<Self::Cell>;
@@ -139,6 +146,7 @@ impl<'a, T: Scalar> Trilinear<'a, T> {
 impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
     type Cell = [f64; 8];
     const LINEAR_ON_EDGES: bool = true;
+    const MULTILINEAR: bool = true;
 
     fn load(&self, cell: [usize; 3]) -> Option<[f64; 8]> {
         let c = self.corners(cell);

@@ -72,6 +72,53 @@ const GRID_CORNER: [Option<u8>; 27] = {
     t
 };
 
+/// The points of a box's 3x3x3 halving grid that are not box corners, in an
+/// order where each is the midpoint of two points before it (or corners):
+/// `(point, a, b)`. Points with one middle digit (edge midpoints) come
+/// first, then those with two (face centres), then the centre; each is
+/// halfway between its neighbours along its first middle digit's axis.
+const GRID_MIDPOINTS: [(u8, u8, u8); 19] = {
+    let mut t = [(0u8, 0u8, 0u8); 19];
+    let mut n = 0;
+    let mut middles = 1;
+    while middles <= 3 {
+        let mut g = 0;
+        while g < 27 {
+            let d = [g % 3, g / 3 % 3, g / 9];
+            let count = (d[0] == 1) as usize + (d[1] == 1) as usize + (d[2] == 1) as usize;
+            if count == middles {
+                let axis = if d[0] == 1 {
+                    0
+                } else if d[1] == 1 {
+                    1
+                } else {
+                    2
+                };
+                let step = [1, 3, 9][axis];
+                t[n] = (g as u8, (g - step) as u8, (g + step) as u8);
+                n += 1;
+            }
+            g += 1;
+        }
+        middles += 1;
+    }
+    t
+};
+
+/// A box's 3x3x3 halving grid of values (see [`GRID_CORNER`]) for a
+/// multilinear filter, from the box's corner values `f` (VTK order): the
+/// other points by means (see [`ReconstructionFilter::MULTILINEAR`]).
+fn halving_grid_of_multilinear(f: &[f64; 8]) -> [f64; 27] {
+    let mut grid = [0.0; 27];
+    for (k, c) in CORNERS.iter().enumerate() {
+        grid[2 * c[0] as usize + 6 * c[1] as usize + 18 * c[2] as usize] = f[k];
+    }
+    for (g, a, b) in GRID_MIDPOINTS {
+        grid[g as usize] = 0.5 * (grid[a as usize] + grid[b as usize]);
+    }
+    grid
+}
+
 /// For each child box (by its corner of the parent) and each of its
 /// corners, the point of the parent's halving grid it is.
 const CHILD_GRID: [[u8; 8]; 8] = {
@@ -90,14 +137,21 @@ const CHILD_GRID: [[u8; 8]; 8] = {
     t
 };
 
-/// A box in the search's queue, ordered so that the heap's top is the
-/// nearest box, ties broken by size (larger first) and position: a total
-/// order, so the search does not depend on the order boxes were queued.
-struct Queued(Cube);
+/// A box in the search's queue: where it is, and its corner values' index
+/// in the search's list of them (kept apart so that the heap moves small
+/// entries). Ordered so that the heap's top is the nearest box, ties
+/// broken by size (larger first) and position: a total order, so the
+/// search does not depend on the order boxes were queued.
+struct Queued {
+    lo: DVec3,
+    size: f64,
+    lower: f64,
+    values: u32,
+}
 
 impl Queued {
     fn rank(&self, other: &Self) -> std::cmp::Ordering {
-        let (b, c) = (&self.0, &other.0);
+        let (b, c) = (self, other);
         b.lower
             .total_cmp(&c.lower)
             .then(c.size.total_cmp(&b.size))
@@ -127,6 +181,10 @@ impl Ord for Queued {
         other.rank(self)
     }
 }
+
+/// Room for the open boxes and their values reserved up front: most
+/// searches open a few dozen boxes and then never grow the buffers.
+const QUEUE_CAPACITY: usize = 256;
 
 fn straddles(f: &[f64; 8]) -> bool {
     f.iter().any(|&v| v <= 0.0) && f.iter().any(|&v| v >= 0.0)
@@ -167,11 +225,29 @@ pub fn nearest_within<F: ReconstructionFilter>(
         return Test::Failed;
     }
     // The open boxes, nearest first (a heap: searches that open thousands
-    // of boxes, in cells where S_K folds tightly, stay n log n).
-    let mut open = BinaryHeap::from([Queued(root)]);
+    // of boxes, in cells where S_K folds tightly, stay n log n), and the
+    // corner values of every box queued.
+    let mut open = BinaryHeap::with_capacity(QUEUE_CAPACITY);
+    let mut values = Vec::with_capacity(QUEUE_CAPACITY);
+    let queue = |open: &mut BinaryHeap<Queued>, values: &mut Vec<[f64; 8]>, c: &Cube| {
+        open.push(Queued {
+            lo: c.lo,
+            size: c.size,
+            lower: c.lower,
+            values: values.len() as u32,
+        });
+        values.push(c.f);
+    };
+    queue(&mut open, &mut values, &root);
     for _ in 0..MAX_BOXES {
-        let Some(Queued(b)) = open.pop() else {
+        let Some(q) = open.pop() else {
             break;
+        };
+        let b = Cube {
+            lo: q.lo,
+            size: q.size,
+            f: values[q.values as usize],
+            lower: q.lower,
         };
         if b.lower > epsilon {
             if b.size <= COARSE {
@@ -198,14 +274,18 @@ pub fn nearest_within<F: ReconstructionFilter>(
         // eight corners are known.
         let half = b.size * 0.5;
         let mut grid = [0.0f64; 27];
-        for (g, value) in grid.iter_mut().enumerate() {
-            *value = match GRID_CORNER[g] {
-                Some(k) => b.f[k as usize],
-                None => {
-                    let d = [g % 3, g / 3 % 3, g / 9];
-                    f(b.lo + DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64) * half)
-                }
-            };
+        if F::MULTILINEAR {
+            grid = halving_grid_of_multilinear(&b.f);
+        } else {
+            for (g, value) in grid.iter_mut().enumerate() {
+                *value = match GRID_CORNER[g] {
+                    Some(k) => b.f[k as usize],
+                    None => {
+                        let d = [g % 3, g / 3 % 3, g / 9];
+                        f(b.lo + DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64) * half)
+                    }
+                };
+            }
         }
         for (child, at) in CHILD_GRID.iter().enumerate() {
             let o = CORNERS[child];
@@ -220,7 +300,7 @@ pub fn nearest_within<F: ReconstructionFilter>(
                 c.f[k] = grid[at[k] as usize];
             }
             if straddles(&c.f) {
-                open.push(Queued(c));
+                queue(&mut open, &mut values, &c);
             }
         }
     }
@@ -372,6 +452,33 @@ pub(crate) mod tests {
             }
         }
         best
+    }
+
+    #[test]
+    fn halving_grid_means_are_the_trilinear_values() {
+        // Random cells and boxes: every point of the halving grid gets the
+        // trilinear interpolant's value there, to rounding.
+        let mut rnd = uniform(2718);
+        for _ in 0..500 {
+            let c: [f64; 8] = std::array::from_fn(|_| rnd() * 2.0 - 1.0);
+            let size = 0.5 * rnd();
+            let lo = DVec3::new(rnd(), rnd(), rnd()) * (1.0 - size);
+            let at = |d: [usize; 3]| {
+                lo + DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64) * (0.5 * size)
+            };
+            let f = std::array::from_fn(|k| {
+                let q = CORNERS[k];
+                trilinear_value(
+                    &c,
+                    at([2 * q[0] as usize, 2 * q[1] as usize, 2 * q[2] as usize]),
+                )
+            });
+            let grid = halving_grid_of_multilinear(&f);
+            for (g, v) in grid.iter().enumerate() {
+                let exact = trilinear_value(&c, at([g % 3, g / 3 % 3, g / 9]));
+                assert!((v - exact).abs() <= 1e-14, "point {g}: {v} vs {exact}");
+            }
+        }
     }
 
     #[test]

@@ -85,9 +85,15 @@ impl<H: Held> Bin<H> {
     pub(crate) fn take_where(&self, fits: impl Fn(&H) -> bool) -> Option<H> {
         let mut free = self.lock();
         let i = free.iter().position(fits)?;
+        Some(Self::remove(&mut free, i))
+    }
+
+    /// Takes the `i`th kept buffer out of `free`, the bin's locked list,
+    /// and out of the retained count.
+    fn remove(free: &mut Vec<H>, i: usize) -> H {
         let h = free.swap_remove(i);
         RETAINED.fetch_sub(h.bytes(), Ordering::Relaxed);
-        Some(h)
+        h
     }
 
     /// Keeps `h` for a later call if the bin and the budget have room;
@@ -128,14 +134,7 @@ impl<T: Send> Bin<Vec<T>> {
             .filter(|&i| free[i].capacity() >= n)
             .min_by_key(|&i| free[i].capacity())
             .or_else(|| (0..free.len()).max_by_key(|&i| free[i].capacity()));
-        match best {
-            Some(i) => {
-                let v = free.swap_remove(i);
-                RETAINED.fetch_sub(v.bytes(), Ordering::Relaxed);
-                v
-            }
-            None => Vec::new(),
-        }
+        best.map_or_else(Vec::new, |i| Self::remove(&mut free, i))
     }
 }
 
