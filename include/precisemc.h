@@ -448,11 +448,14 @@ typedef struct pmc_stats {
      */
     uint8_t budget_reached;
     /**
-     * Wall time spent in Marching Cubes, seconds.
+     * Wall time spent in Marching Cubes, seconds: the rest of the
+     * passes over the cells once `time_refine` is taken.
      */
     double time_mc;
     /**
-     * Wall time spent in refinement, seconds.
+     * Wall time spent in refinement, seconds: the passes' wall time in
+     * the proportion measured on the refined cells (all of a slab's
+     * first 64, then one in eight; an estimate).
      */
     double time_refine;
     /**

@@ -232,7 +232,7 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
         counters.above_eps += o.counters.above_eps;
         counters.unsound_cells += o.counters.unsound_cells;
         counters.recut_polygons += o.counters.recut_polygons;
-        refine_t += o.refine_time;
+        refine_t += o.refine_time();
         total_t += o.total_time;
     }
     stats.samples_evaluated = counters.samples;

@@ -115,9 +115,12 @@ pub struct pmc_stats {
     /// 1 if the triangle cap stopped refinement below the requested max
     /// level, else 0.
     pub budget_reached: u8,
-    /// Wall time spent in Marching Cubes, seconds.
+    /// Wall time spent in Marching Cubes, seconds: the rest of the
+    /// passes over the cells once `time_refine` is taken.
     pub time_mc: f64,
-    /// Wall time spent in refinement, seconds.
+    /// Wall time spent in refinement, seconds: the passes' wall time in
+    /// the proportion measured on the refined cells (all of a slab's
+    /// first 64, then one in eight; an estimate).
     pub time_refine: f64,
     /// Wall time spent welding and assembling the output, seconds.
     pub time_assemble: f64,
