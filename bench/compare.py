@@ -428,6 +428,38 @@ def more_rounds(cfgs, results, env):
                   flush=True)
 
 
+# --- PreciseMC asked for each upsampled surface's accuracy ---------------------------
+
+ASKED = (1.0, 0.8)  # epsilons tried per upsampled surface, as fractions of its max
+
+
+def asked_configs(cfgs, results):
+    """PreciseMC A1 runs (2 threads) whose epsilon is each upsampled
+    surface's measured max distance (and a little less, ASKED): what a user
+    who wants that accuracy would ask for. Refinement keeps the max close to
+    epsilon (since the cubic along interior edges is checked), so these find
+    the fewest triangles for the equal-accuracy tables that the fixed
+    epsilons above straddle. Epsilons (two significant digits) already run
+    for the volume are skipped."""
+    out = []
+    done = {(c["vol"], c["eps"]) for c in cfgs
+            if c["kind"] == "pmc" and c.get("rule") == "A1" and c.get("level", 5) == 5
+            and c.get("threads") == 2}
+    for cfg, r in zip(cfgs, results):
+        if cfg["kind"] != "upsample" or cfg.get("scaling") or "dist" not in r:
+            continue
+        for k in ASKED:
+            eps = float(f"{r['dist']['max'] * k:.2g}")
+            if eps <= 0 or (cfg["vol"], eps) in done:
+                continue
+            done.add((cfg["vol"], eps))
+            base = {key: cfg[key] for key in ("vol", "path", "iso", "reps", "measure_cap",
+                                              "density")}
+            out.append(dict(base, kind="pmc", label=f"PreciseMC A1 eps {eps:g} 2T", rule="A1",
+                            eps=eps, threads=2, asked=cfg["factor"]))
+    return out
+
+
 # --- Full maxima of the equal-accuracy candidates ------------------------------------
 
 VERIFY_TRIES = 4  # candidates re-measured per upsampling factor and distance
@@ -787,14 +819,22 @@ def main():
         cfgs = [c for c in cfgs if c["vol"] in only]
     env = dict(os.environ)
     results = []
-    for i, cfg in enumerate(cfgs):
-        r = run_worker(cfg, env)
-        results.append(r)
-        d = r.get("dist")
-        print(f"[{i + 1}/{len(cfgs)}] {r['vol']:>14} {r['label']:<34} "
-              + (f"error: {r['error']}" if "error" in r else
-                 f"{r['time'] * 1000:9.1f} ms {r['tris']:>10,} tris {r['mem_mib']:7.0f} MiB"
-                 + (f"  max {d['max']:.4f} mean {d['mean']:.5f}" if d else "")), flush=True)
+
+    def run_all(batch):
+        for cfg in batch:
+            r = run_worker(cfg, env)
+            results.append(r)
+            d = r.get("dist")
+            print(f"[{len(results)}/{len(cfgs)}] {r['vol']:>14} {r['label']:<34} "
+                  + (f"error: {r['error']}" if "error" in r else
+                     f"{r['time'] * 1000:9.1f} ms {r['tris']:>10,} tris {r['mem_mib']:7.0f} MiB"
+                     + (f"  max {d['max']:.4f} mean {d['mean']:.5f}" if d else "")), flush=True)
+
+    run_all(cfgs)
+    # Then PreciseMC asked for each upsampled surface's measured accuracy.
+    asked = asked_configs(cfgs, results)
+    cfgs = cfgs + asked
+    run_all(asked)
     more_rounds(cfgs, results, env)
     verify_maxima(results, env)
     # The rows of the volumes not re-run, in plan order around the new ones.

@@ -212,8 +212,21 @@ pub fn test<F: ReconstructionFilter>(
     fixed: u8,
     epsilon: f64,
 ) -> Test {
+    test_from::<F>(cell, iso, p, F::value_gradient(cell, p), fixed, epsilon)
+}
+
+/// [`test`], given the filter's value and gradient at `p` (as
+/// [`ReconstructionFilter::value_gradient`] returns them).
+#[inline]
+pub(crate) fn test_from<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    (v0, g0): (f64, DVec3),
+    fixed: u8,
+    epsilon: f64,
+) -> Test {
     let mask = |g: DVec3| without_fixed(g, fixed);
-    let (v0, g0) = F::value_gradient(cell, p);
     let g = mask(g0);
     let len2 = g.length_squared();
     if len2 > 0.0 && len2.is_finite() {

@@ -17,7 +17,7 @@ use crate::filter::ReconstructionFilter;
 use crate::flat_map::FlatMap;
 use crate::nearest::{nearest, nearest_within};
 use crate::options::Rule;
-use crate::project::{seems_far, test, Test};
+use crate::project::{seems_far, test_from, Test};
 
 /// Refinement settings and counters for one worker.
 pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
@@ -313,6 +313,23 @@ pub(crate) fn sample<F: ReconstructionFilter>(
     fallback: bool,
     reach: f64,
 ) -> Sample {
+    let vg = F::value_gradient(cell, p);
+    sample_from::<F>(cell, iso, p, vg, fixed, epsilon, fallback, reach)
+}
+
+/// [`sample`], given the filter's value and gradient at `p`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn sample_from<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    vg: (f64, DVec3),
+    fixed: u8,
+    epsilon: f64,
+    fallback: bool,
+    reach: f64,
+) -> Sample {
     let mut s = Sample {
         split: None,
         failed: false,
@@ -320,7 +337,7 @@ pub(crate) fn sample<F: ReconstructionFilter>(
         stuck: false,
     };
     let within = |q: DVec3| (q - p).length_squared() <= reach * reach;
-    match test::<F>(cell, iso, p, fixed, epsilon) {
+    match test_from::<F>(cell, iso, p, vg, fixed, epsilon) {
         Test::Far(q) if within(q) => s.split = Some(q),
         Test::Failed | Test::Far(_) => {
             // The gradient line left the cell, or crossed it to another
@@ -389,7 +406,12 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
     fallback: bool,
 ) -> Sample {
     let m = (a + b) * 0.5;
-    let mut s = sample::<F>(cell, iso, m, fixed, epsilon, fallback, (b - a).length());
+    let vg = F::value_gradient(cell, m);
+    let mut s = sample_from::<F>(cell, iso, m, vg, fixed, epsilon, fallback, (b - a).length());
+    if s.split.is_none() && !s.failed && fixed == 0 {
+        s.split = bulge::<F>(cell, iso, a, b, vg, epsilon, fallback);
+        return s;
+    }
     let (Some(q), true, 0) = (s.split, s.failed, fixed) else {
         return s;
     };
@@ -410,6 +432,75 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
         }
     }
     s
+}
+
+/// Where `S_K` bows more than epsilon away from the interior edge `a b`
+/// between its ends and its midpoint, which tested near. For a filter that
+/// is a cubic along lines ([`ReconstructionFilter::line_cubic`]: the
+/// trilinear one) `F - iso` along the edge is known exactly; with both
+/// ends on `S_K` and the midpoint near, it can still swing away in an S
+/// (a sheet crossing the edge at a slant), which a midpoint never sees
+/// however small epsilon is: on the atoms sample of the benchmark such
+/// edges, kept whole down to the last level, set the surface's farthest
+/// point (0.029 cells at every epsilon from 0.01 to 0.001). The cubic's
+/// extreme values between the ends, over the gradient's length there,
+/// estimate the distance; a point estimated farther than epsilon is
+/// tested like any sample, and the edge splits where that test puts it.
+/// (In a face the filter is bilinear, so along an edge in it a quadratic:
+/// with both ends on `S_K` its extreme is at the midpoint, already
+/// tested.) `None` when the edge stays near or the filter is not a cubic
+/// along lines. A pure function of the edge: the ends are put in a fixed
+/// order first.
+fn bulge<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    a: DVec3,
+    b: DVec3,
+    (v, g): (f64, DVec3),
+    epsilon: f64,
+    fallback: bool,
+) -> Option<DVec3> {
+    let (a, b) = if a.to_array() <= b.to_array() {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let m = (a + b) * 0.5;
+    let e = b - a;
+    let (a2, a3) = F::line_cubic(cell, m, e)?;
+    // With t = 0 at the midpoint and the ends (t = +-1/2) on `S_K`, the
+    // cubic is (1 - 4 t^2) (q0 - a3 t / 4): beyond the midpoint's own
+    // value q0 it swings by at most |a3| / (12 sqrt 3) < 0.05 |a3|. Nearly
+    // every edge (all short ones: a3 grows with the cube of the length)
+    // swings by less than a tenth of epsilon there and is left to its
+    // midpoint's decision, which spares the search below (it made
+    // refinement a sixth slower on Marschner-Lobb).
+    if 0.05 * a3.abs() <= 0.1 * epsilon * g.length() {
+        return None;
+    }
+    let (q0, q1) = (v - iso, g.dot(e));
+    // The critical points of q0 + q1 t + a2 t^2 + a3 t^3 (a3 != 0 here).
+    let disc = a2 * a2 - 3.0 * a3 * q1;
+    if disc < 0.0 {
+        return None;
+    }
+    let r = disc.sqrt();
+    let mut worst: Option<(f64, DVec3)> = None;
+    for t in [(-a2 - r) / (3.0 * a3), (-a2 + r) / (3.0 * a3)] {
+        if !(t > -0.5 && t < 0.5) {
+            continue;
+        }
+        let x = m + e * t;
+        let c = (q0 + t * (q1 + t * (a2 + t * a3))).abs();
+        // The gradient there, not at the midpoint: near a saddle of the
+        // filter it is far weaker, and the distance far larger.
+        let d = c / F::gradient(cell, x).length();
+        if d > epsilon && worst.map_or(true, |(wd, _)| d > wd) {
+            worst = Some((d, x));
+        }
+    }
+    let x = worst?.1;
+    sample::<F>(cell, iso, x, 0, epsilon, fallback, e.length()).split
 }
 
 /// How much longer than the nearest point's longer child the bisector's
@@ -874,6 +965,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
 mod tests {
     use super::*;
     use crate::filter::{trilinear_value, Trilinear};
+    use crate::project::test;
 
     use crate::nearest::tests::uniform;
 
@@ -978,7 +1070,11 @@ mod tests {
             let m = (a + b) * 0.5;
             let plain = sample::<Tri>(&c, 0.0, m, fixed, 1e-3, true, (b - a).length());
             let chosen = sample_edge::<Tri>(&c, 0.0, a, b, fixed, 1e-3, true);
-            assert_eq!(plain.split.is_some(), chosen.split.is_some());
+            // A near midpoint splits only where the edge bulges (tested
+            // below).
+            assert!(
+                plain.split.is_some() || chosen.split.is_none() || (fixed == 0 && !plain.failed)
+            );
             let (Some(q), Some(r)) = (plain.split, chosen.split) else {
                 continue;
             };
@@ -1000,6 +1096,63 @@ mod tests {
         assert!(
             along > 30 && across > 10,
             "{along} split far along, {across} re-placed"
+        );
+    }
+
+    /// The largest distance to `S_K` of the points along the segment
+    /// `a b` of the one-cell volume `c`, by the independent measure of
+    /// [`crate::accuracy`].
+    fn edge_distance(c: &[f64; 8], a: DVec3, b: DVec3) -> f64 {
+        // Samples x-fastest; VTK corner order swaps corners 2/3 and 6/7.
+        let data = [c[0], c[1], c[3], c[2], c[4], c[5], c[7], c[6]];
+        let v = crate::Volume::new(&data[..], [2, 2, 2]);
+        let opts = crate::accuracy::MeasureOptions {
+            density: 32,
+            threads: 1,
+            ..Default::default()
+        };
+        let pts = [a.to_array(), b.to_array()];
+        crate::accuracy::measure(&v, 0.0, &pts, &[[0, 1, 1]], &opts)
+            .unwrap()
+            .max
+    }
+
+    #[test]
+    fn interior_edges_near_at_the_midpoint_split_where_they_bulge() {
+        // Edges between crossings of random cells: an interior edge whose
+        // midpoint tests near splits only where S_K swings farther than
+        // epsilon from it between the ends (measured independently), at
+        // a point of S_K; kept whole, it stays near along its length (at
+        // most 1.12 epsilon on these edges: distances along gradient
+        // lines, and the measure's 2 % tolerance).
+        let eps = 0.01;
+        let (mut bulging, mut whole) = (0, 0);
+        for (c, a, b, fixed) in random_edges(77, 40000) {
+            let m = (a + b) * 0.5;
+            let plain = sample::<Tri>(&c, 0.0, m, fixed, eps, true, (b - a).length());
+            if plain.split.is_some() || plain.failed || fixed != 0 {
+                continue;
+            }
+            let chosen = sample_edge::<Tri>(&c, 0.0, a, b, fixed, eps, true);
+            let far = edge_distance(&c, a, b);
+            match chosen.split {
+                Some(r) => {
+                    bulging += 1;
+                    assert!(trilinear_value(&c, r).abs() < 1e-9, "{r} off S_K");
+                    assert!(far > eps, "edge {a} {b} of {c:?} split, {far} from S_K");
+                }
+                None => {
+                    whole += 1;
+                    assert!(
+                        far <= 1.25 * eps,
+                        "edge {a} {b} of {c:?} kept, {far} from S_K"
+                    );
+                }
+            }
+        }
+        assert!(
+            bulging > 100 && whole > 100,
+            "{bulging} bulging, {whole} whole"
         );
     }
 
