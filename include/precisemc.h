@@ -755,6 +755,18 @@ pmc_status pmc_mesh_stats(const struct pmc_mesh *mesh, struct pmc_stats *out);
 uint64_t pmc_mesh_cells_refined_on_faces_only(const struct pmc_mesh *mesh);
 
 /**
+ * Cells where refinement stalled on a fold or neck of the ideal surface
+ * and that were meshed again on 4x4x4 sub-cells (see `cells_on_subcells`
+ * in the README). 0 for a `NULL` mesh and with refinement off. Not in
+ * `pmc_stats`, whose layout is fixed.
+ *
+ * # Safety
+ *
+ * `mesh` must be `NULL` or a live handle from `pmc_extract`.
+ */
+uint64_t pmc_mesh_cells_on_subcells(const struct pmc_mesh *mesh);
+
+/**
  * Marching Cubes polygons cut along other diagonals before refinement,
  * because refinement could not bring a diagonal of the case table's onto
  * the ideal surface (see `recut_polygons` in the README). 0 for a `NULL`

@@ -189,6 +189,11 @@ pub(crate) fn assemble(
         degenerate.extend(d);
     }
     remove_duplicate_triangles(candidates, degenerate, &mut triangles, &mut levels);
+    if stats.cells_on_subcells > 0 {
+        // A cell meshed again on sub-cells drops the Marching Cubes point
+        // inside it, made before its refinement.
+        drop_unused_points(&mut index_points, &mut triangles);
+    }
 
     // World coordinates.
     let mut points = Vec::new();
@@ -218,6 +223,31 @@ pub(crate) fn assemble(
     })
 }
 
+/// Removes the points no triangle uses, keeping the others' order.
+fn drop_unused_points(points: &mut Vec<[f64; 3]>, triangles: &mut [[u64; 3]]) {
+    let mut new_id = vec![u64::MAX; points.len()];
+    for t in triangles.iter() {
+        for &v in t {
+            new_id[v as usize] = 0;
+        }
+    }
+    let mut next = 0;
+    for id in new_id.iter_mut() {
+        if *id == 0 {
+            *id = next;
+            next += 1;
+        }
+    }
+    let mut i = 0;
+    points.retain(|_| {
+        i += 1;
+        new_id[i - 1] != u64::MAX
+    });
+    for t in triangles.iter_mut() {
+        *t = t.map(|v| new_id[v as usize]);
+    }
+}
+
 /// Sums the slabs' statistics into `stats`.
 fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
     let mut counters = Counters::default();
@@ -232,6 +262,7 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
         counters.above_eps += o.counters.above_eps;
         counters.unsound_cells += o.counters.unsound_cells;
         counters.recut_polygons += o.counters.recut_polygons;
+        counters.cells_on_subcells += o.counters.cells_on_subcells;
         refine_t += o.refine_time();
         total_t += o.total_time;
     }
@@ -241,6 +272,7 @@ fn sum_counters(outs: &[SlabOut], passes_wall: f64, stats: &mut Stats) {
     stats.faces_above_epsilon = counters.above_eps;
     stats.cells_refined_on_faces_only = counters.unsound_cells;
     stats.recut_polygons = counters.recut_polygons;
+    stats.cells_on_subcells = counters.cells_on_subcells;
     // The slabs' times are per thread and add up over threads: split the
     // passes' wall time in their proportion.
     let total = total_t.as_secs_f64();

@@ -38,6 +38,7 @@ use crate::refine::{
     faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
     Counters, EdgeCache, Refinable, Refiner, Tri,
 };
+use crate::subcells;
 use crate::tables::cube::{on_one_face, CORNERS, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
@@ -230,6 +231,9 @@ struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     emitted: &'a AtomicU64,
     layers_done: &'a AtomicU64,
     scratch: &'a ScratchPool,
+    /// Whether a cell whose refinement stalls is meshed again on sub-cells
+    /// (see [`crate::subcells`]).
+    subcells: bool,
 }
 
 /// How many refined cells of a slab are all timed before only one in
@@ -509,6 +513,7 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
                 emitted: &emitted,
                 layers_done: &layers_done,
                 scratch: &scratch,
+                subcells: refine && subcells::allowed(options),
             };
             let pool = match exec {
                 Exec::Serial => {
@@ -733,6 +738,11 @@ fn surface_guess(cell_dims: [usize; 3], layers: usize) -> usize {
 /// triangles of a unit cell are many orders of magnitude larger.
 const MIN_DOUBLE_AREA2: f64 = 1e-28;
 
+/// Leaves a refined cell may make beyond what is left under the cap when
+/// it may be meshed again on sub-cells (its stalled patch is replaced,
+/// often by a smaller one; see [`crate::subcells`]).
+const STALL_SLACK: u64 = 1 << 20;
+
 /// Triangles a slab gathers before adding them to the shared count (it
 /// reports the rest when it ends).
 const REPORT_BATCH: u64 = 1024;
@@ -779,6 +789,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
     let mut edges = FlatMap::<u32>::default();
     let mut seen = FlatMap::<()>::default();
+    let mut count_leaves: Vec<([u32; 3], [DVec3; 3], u8)> = Vec::new();
     let [nx, ny, _] = sh.cell_dims;
     let count_only = matches!(mode, Mode::Count { .. });
     let (Mode::Output { cap } | Mode::Count { cap }) = mode;
@@ -1111,14 +1122,21 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // Under a cap, the leaves this cell may add before the pass
                 // is over it for sure (the other slabs' count lags behind,
                 // so this never stops a pass whose output would fit).
-                let leaf_budget = if cap == u64::MAX {
-                    u64::MAX
+                // A cell that may be meshed again on sub-cells gets room
+                // for its stalled patch beyond that (it is replaced by a
+                // patch that may fit): the check after the cell decides.
+                let produced_before = produced(&out, count_only);
+                let (remaining, leaf_budget) = if cap == u64::MAX {
+                    (u64::MAX, u64::MAX)
                 } else {
-                    let unreported = produced(&out, count_only) - reported;
-                    cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported)
+                    let unreported = produced_before - reported;
+                    let r = cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported);
+                    let slack = if sh.subcells { STALL_SLACK } else { 0 };
+                    (r, r.saturating_add(slack))
                 };
                 for attempt in 0..ATTEMPTS {
                     cache.clear();
+                    count_leaves.clear();
                     let mut merged = false;
                     let mut sliver = false;
                     let nearest_before = out.counters.nearest_splits;
@@ -1143,6 +1161,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         cache: &mut cache,
                         interior_fallback: attempt == 0,
                         leaf_budget,
+                        stall_len2: if sh.subcells {
+                            subcells::stall_len2(sh.max_level)
+                        } else {
+                            f64::INFINITY
+                        },
                         refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
@@ -1177,10 +1200,22 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             near: 0,
                         };
                         if count_only {
-                            let within_budget = refiner.run(root, false, &mut |_| {}, &mut |_| {
-                                next_id += 1;
-                                next_id
-                            });
+                            // Leaves are kept only to mesh a stalled cell
+                            // again (and count that).
+                            let leaves = &mut count_leaves;
+                            let within_budget = refiner.run(
+                                root,
+                                sh.subcells,
+                                &mut |t: &Tri| {
+                                    if sh.subcells {
+                                        leaves.push((t.v, t.p, t.level));
+                                    }
+                                },
+                                &mut |_| {
+                                    next_id += 1;
+                                    next_id
+                                },
+                            );
                             if !within_budget {
                                 // More leaves than the cap: the level does
                                 // not fit, whatever the rest counts.
@@ -1285,6 +1320,23 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         out.counters.unsound_cells += 1;
                     }
                 }
+                // A patch still far from S_K with long edges at the last
+                // level: refinement stalled on a fold; mesh the cell again
+                // on sub-cells, joined to the outline drawn above.
+                if sh.subcells && out.counters.stalled_leaves > before.stalled_leaves {
+                    let at = CellAt {
+                        f: &f,
+                        cell_f,
+                        t_start,
+                        v_start,
+                        above_before: before.above_eps,
+                    };
+                    if count_only {
+                        count_remeshed(&mut out, &count_leaves, &at, opts, sh.max_level);
+                    } else {
+                        remesh_cell(&mut out, &mut map, &mut local, &at, opts, sh.max_level);
+                    }
+                }
                 if !count_only {
                     note_flat(&mut out, t_start);
                 }
@@ -1294,9 +1346,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.timed_cells += 1;
                 }
                 // One row of deeply refined cells can hold far more than
-                // the cap: check after every cell that emitted many.
+                // the cap: check after every cell that emitted many, or
+                // more than was left.
                 let n = produced(&out, count_only);
-                if n - reported >= 4096 && report_emitted(sh, n, &mut reported, cap) {
+                if (n - reported >= 4096 || n - produced_before > remaining)
+                    && report_emitted(sh, n, &mut reported, cap)
+                {
                     break 'layers;
                 }
             }
@@ -1355,6 +1410,138 @@ fn read_sample_layer<T: Scalar>(
     for (jj, bits) in ins.chunks_exact_mut(nxs).enumerate() {
         fin[jj] = grid.row_inside(jj, z, iso, bits);
     }
+}
+
+/// A cell being refined in a slab: corner values less the isovalue, lowest
+/// corner (global index coordinates), where its patch starts in the
+/// slab's triangles and points, and the slab's count of leaves above
+/// epsilon before it.
+struct CellAt<'a> {
+    f: &'a [f64; 8],
+    cell_f: DVec3,
+    t_start: usize,
+    v_start: usize,
+    above_before: u64,
+}
+
+/// Numbers the points of a patch `0..` in order of first use: the
+/// patch's triangles over those numbers, and the ids in that order.
+fn renumber(tris: impl Iterator<Item = [u32; 3]>) -> (Vec<[u32; 3]>, Vec<u32>) {
+    let mut ids: Vec<u32> = Vec::new();
+    let mut index: HashMap<u32, u32> = HashMap::new();
+    let tris = tris
+        .map(|t| {
+            t.map(|v| {
+                *index.entry(v).or_insert_with(|| {
+                    ids.push(v);
+                    ids.len() as u32 - 1
+                })
+            })
+        })
+        .collect();
+    (tris, ids)
+}
+
+/// Moves a re-meshed cell's output in the per-level counts from the old
+/// patch's leaf levels to the new patch's (`level` is the pass's maximum:
+/// nodes there are leaves), and its leaves above epsilon to the new
+/// patch's.
+fn recount(out: &mut SlabOut, old: &[u8], new: &subcells::Remeshed, at: &CellAt<'_>, level: u32) {
+    let c = &mut out.counters;
+    for (&l, sign) in old
+        .iter()
+        .map(|l| (l, -1i64))
+        .chain(new.levels.iter().map(|l| (l, 1)))
+    {
+        let l = (l as usize).min(15);
+        c.per_level[l] = c.per_level[l].wrapping_add_signed(sign);
+        if l == level as usize {
+            c.nodes_per_level[l] = c.nodes_per_level[l].wrapping_add_signed(sign);
+        }
+    }
+    c.above_eps = at.above_before + new.above_eps;
+    c.cells_on_subcells += 1;
+}
+
+/// In a pass that only counts: counts the patch that [`remesh_cell`] would
+/// put in place of the cell's stalled one (`leaves`: ids, local
+/// positions, levels).
+fn count_remeshed(
+    out: &mut SlabOut,
+    leaves: &[([u32; 3], [DVec3; 3], u8)],
+    at: &CellAt<'_>,
+    options: &Options,
+    max_level: u32,
+) {
+    let (old_tris, ids) = renumber(leaves.iter().map(|l| l.0));
+    let mut old_pos = vec![DVec3::ZERO; ids.len()];
+    for (t, l) in old_tris.iter().zip(leaves) {
+        for e in 0..3 {
+            old_pos[t[e] as usize] = l.1[e];
+        }
+    }
+    if let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris) {
+        let old: Vec<u8> = leaves.iter().map(|l| l.2).collect();
+        recount(out, &old, &new, at, max_level);
+    }
+}
+
+/// Replaces the cell's refined patch (the slab's triangles from
+/// `at.t_start` on) by the one [`subcells::remesh`] makes, when it makes
+/// one. Points from `at.v_start` on were made for the old patch: they are
+/// dropped, and those on its outline made again (so a neighbour still
+/// finds them in `map`); earlier points keep their ids.
+fn remesh_cell(
+    out: &mut SlabOut,
+    map: &mut KeyMap<u32>,
+    local: &mut KeyMap<u32>,
+    at: &CellAt<'_>,
+    options: &Options,
+    max_level: u32,
+) {
+    let (old_tris, ids) = renumber(out.tris[at.t_start..].iter().copied());
+    let old_gp: Vec<DVec3> = ids.iter().map(|&v| out.verts[v as usize]).collect();
+    let old_pos: Vec<DVec3> = old_gp.iter().map(|&p| p - at.cell_f).collect();
+    let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris) else {
+        return;
+    };
+    let old_levels = out.levels.split_off(at.t_start);
+    recount(out, &old_levels, &new, at, max_level);
+    for v in out.verts.drain(at.v_start..) {
+        map.remove(&key(v));
+    }
+    local.clear();
+    out.tris.truncate(at.t_start);
+    let base = ids.len();
+    let mut new_id = vec![u32::MAX; base + new.points.len()];
+    for t in &new.tris {
+        let mut tri = [0u32; 3];
+        for (x, &v) in t.iter().enumerate() {
+            let v = v as usize;
+            if new_id[v] == u32::MAX {
+                let next = out.verts.len() as u32;
+                new_id[v] = if v >= base {
+                    // Strictly inside the cell or on a face inside the
+                    // outline: this cell's alone.
+                    out.verts.push(at.cell_f + new.points[v - base]);
+                    next
+                } else if (ids[v] as usize) < at.v_start {
+                    ids[v]
+                } else {
+                    // A point of the outline made for the old patch: a
+                    // neighbour looks it up by position.
+                    let gp = old_gp[v];
+                    *map.entry(key(gp)).or_insert_with(|| {
+                        out.verts.push(gp);
+                        next
+                    })
+                };
+            }
+            tri[x] = new_id[v];
+        }
+        out.tris.push(tri);
+    }
+    out.levels.extend_from_slice(&new.levels);
 }
 
 /// Notes which of the slab's triangles from index `from` on lie in a grid

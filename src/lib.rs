@@ -64,6 +64,7 @@ mod normals;
 mod par;
 mod recycle;
 mod refine;
+mod subcells;
 #[cfg(test)]
 mod test_rng;
 

@@ -42,6 +42,13 @@ pub struct Stats {
     /// onto the ideal surface (it crossed a part of the cell the surface
     /// never enters); 0 with refinement off.
     pub recut_polygons: u64,
+    /// Cells where refinement stalled (a fold or neck of the surface
+    /// narrower than the cell: edges still long and farther than epsilon
+    /// at the last level) and that were meshed again on 4x4x4 sub-cells,
+    /// joined to their neighbours by strips of triangles lying in the
+    /// cell's faces; 0 with refinement off, below max level 3, with
+    /// classic topology or a cubic filter.
+    pub cells_on_subcells: u64,
     /// Whether the triangle cap stopped refinement below `max_level`.
     pub budget_reached: bool,
     /// The refinement level actually used (below `max_level` when the cap

@@ -49,6 +49,10 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// limit). A pass under a triangle cap stops a cell as soon as it
     /// alone would break the cap, instead of refining it to the end.
     pub leaf_budget: u64,
+    /// Squared length (local units) above which an edge of a leaf at the
+    /// last level that is still farther than epsilon counts in
+    /// [`Counters::stalled_leaves`]; infinite to not look.
+    pub stall_len2: f64,
 }
 
 /// Where a cell may be refined. A sample exactly at the isovalue (or a face
@@ -157,6 +161,11 @@ pub(crate) struct Counters {
     /// Marching Cubes polygons cut along other diagonals before refining
     /// (see [`crate::diagonals`]).
     pub recut_polygons: u64,
+    /// Leaves at the last level with a long edge still farther than
+    /// epsilon (see [`Refiner::stall_len2`] and [`crate::subcells`]).
+    pub stalled_leaves: u64,
+    /// Cells meshed again on sub-cells ([`crate::subcells`]).
+    pub cells_on_subcells: u64,
 }
 
 /// A triangle being refined: vertex ids, local positions, fixed-axis mask
@@ -672,17 +681,24 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     }
 
     /// Whether any sample of `t` is above epsilon (for the statistics at the
-    /// maximum level).
-    fn above(&mut self, t: &Tri) -> bool {
+    /// maximum level), and whether such an edge is longer than
+    /// [`Refiner::stall_len2`] allows.
+    fn above(&mut self, t: &Tri) -> (bool, bool) {
+        let mut far = false;
         for e in 0..3 {
-            let m = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-            if t.near & (1 << e) == 0
-                && seems_far::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon)
-            {
-                return true;
+            let (a, b) = (t.p[e], t.p[(e + 1) % 3]);
+            let long = (b - a).length_squared() > self.stall_len2;
+            if (far && !long) || t.near & (1 << e) != 0 {
+                continue;
+            }
+            if seems_far::<F>(self.cell, self.iso, (a + b) * 0.5, t.fixed[e], self.epsilon) {
+                if long {
+                    return (true, true);
+                }
+                far = true;
             }
         }
-        false
+        (far, false)
     }
 
     /// Emits the output triangle `t` and counts it at its level; false,
@@ -715,8 +731,10 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let lvl = t.level as usize;
             self.counters.nodes_per_level[lvl.min(15)] += 1;
             if t.level as u32 >= self.max_level {
-                if count_above && self.above(&t) {
-                    self.counters.above_eps += 1;
+                if count_above {
+                    let (far, stalled) = self.above(&t);
+                    self.counters.above_eps += far as u64;
+                    self.counters.stalled_leaves += stalled as u64;
                 }
                 if !self.leaf(&t, emit) {
                     return false;

@@ -205,8 +205,9 @@ fn check_cell(
         }
     }
     // Trilinear mode: no triangle lies flat in a cell face (where the
-    // neighbouring cell has its boundary).
-    if topology == Topology::Trilinear {
+    // neighbouring cell has its boundary), except the strips that join a
+    // cell meshed again on sub-cells to its own outline there.
+    if topology == Topology::Trilinear && mesh.stats.cells_on_subcells == 0 {
         for t in &mesh.triangles {
             let p = t.map(|v| pts[v as usize]);
             if on_common_face(p[0], p[1])

@@ -167,13 +167,36 @@ fn split_check(
         .with_index_offset(off);
     let a = extract(&lo, 0.0, opts).map_err(|e| e.to_string())?;
     let b = extract(&hi, 0.0, opts).map_err(|e| e.to_string())?;
+    // A cell meshed again on sub-cells next to the cut also has points in
+    // the cut that only its own triangles use (its strips, flat in the
+    // face, join them to the outline): then the pieces' open edges in the
+    // cut, the outline both sides end on, must match instead.
+    let remeshed = a.stats.cells_on_subcells + b.stats.cells_on_subcells > 0;
     let layer = |m: &Mesh| -> Vec<[u64; 3]> {
-        let on: Vec<[f64; 3]> = m
-            .index_points
-            .iter()
-            .copied()
-            .filter(|p| p[axis] == cut as f64)
-            .collect();
+        let on_cut = |v: u64| m.index_points[v as usize][axis] == cut as f64;
+        let on: Vec<[f64; 3]> = if remeshed {
+            let mut uses = std::collections::HashMap::new();
+            for t in &m.triangles {
+                for e in 0..3 {
+                    let (p, q) = (t[e], t[(e + 1) % 3]);
+                    *uses.entry((p.min(q), p.max(q))).or_insert(0) += 1;
+                }
+            }
+            let mut ends: Vec<u64> = uses
+                .iter()
+                .filter(|&(&(p, q), &n)| n == 1 && on_cut(p) && on_cut(q))
+                .flat_map(|(&(p, q), _)| [p, q])
+                .collect();
+            ends.sort_unstable();
+            ends.dedup();
+            ends.iter().map(|&v| m.index_points[v as usize]).collect()
+        } else {
+            m.index_points
+                .iter()
+                .copied()
+                .filter(|p| p[axis] == cut as f64)
+                .collect()
+        };
         canonical_points(&on)
     };
     let (la, lb) = (layer(&a), layer(&b));

@@ -1309,6 +1309,7 @@ unsafe fn mesh_from_handle(mesh: *const ffi::pmc_mesh) -> Mesh {
             faces_above_epsilon: s.faces_above_epsilon,
             cells_refined_on_faces_only: ffi::pmc_mesh_cells_refined_on_faces_only(mesh),
             recut_polygons: ffi::pmc_mesh_recut_polygons(mesh),
+            cells_on_subcells: ffi::pmc_mesh_cells_on_subcells(mesh),
             budget_reached: s.budget_reached != 0,
             effective_max_level: s.effective_max_level,
             ..precisemc::Stats::default()

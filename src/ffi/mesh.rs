@@ -156,6 +156,7 @@ impl From<&Stats> for pmc_stats {
             // Have their own accessors: this struct's layout is fixed (ABI).
             cells_refined_on_faces_only: _,
             recut_polygons: _,
+            cells_on_subcells: _,
         } = s.clone();
         pmc_stats {
             cells,
@@ -380,6 +381,22 @@ pub unsafe extern "C" fn pmc_mesh_cells_refined_on_faces_only(mesh: *const pmc_m
     value_boundary(0, || {
         // SAFETY: forwarded contract.
         unsafe { self::mesh(mesh) }.map_or(0, |m| m.stats.cells_refined_on_faces_only)
+    })
+}
+
+/// Cells where refinement stalled on a fold or neck of the ideal surface
+/// and that were meshed again on 4x4x4 sub-cells (see `cells_on_subcells`
+/// in the README). 0 for a `NULL` mesh and with refinement off. Not in
+/// `pmc_stats`, whose layout is fixed.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_cells_on_subcells(mesh: *const pmc_mesh) -> u64 {
+    value_boundary(0, || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(0, |m| m.stats.cells_on_subcells)
     })
 }
 

@@ -48,10 +48,10 @@ pub use extract::pmc_extract;
 pub use measure::{pmc_distance, pmc_measure_distance};
 pub use memory::pmc_release_memory;
 pub use mesh::{
-    pmc_mesh, pmc_mesh_cells_refined_on_faces_only, pmc_mesh_free, pmc_mesh_index_points,
-    pmc_mesh_normals, pmc_mesh_point_count, pmc_mesh_points, pmc_mesh_recut_polygons,
-    pmc_mesh_stats, pmc_mesh_take_triangles, pmc_mesh_triangle_count, pmc_mesh_triangle_levels,
-    pmc_mesh_triangles, pmc_stats,
+    pmc_mesh, pmc_mesh_cells_on_subcells, pmc_mesh_cells_refined_on_faces_only, pmc_mesh_free,
+    pmc_mesh_index_points, pmc_mesh_normals, pmc_mesh_point_count, pmc_mesh_points,
+    pmc_mesh_recut_polygons, pmc_mesh_stats, pmc_mesh_take_triangles, pmc_mesh_triangle_count,
+    pmc_mesh_triangle_levels, pmc_mesh_triangles, pmc_stats,
 };
 pub use options::{
     pmc_options, pmc_options_free, pmc_options_new, pmc_options_set_epsilon,

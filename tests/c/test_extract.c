@@ -477,6 +477,31 @@ static void test_recut_polygons(void) {
     pmc_options_free(o);
 }
 
+/* A cell of the EPI scan where the surface folds through a neck at a face's
+ * saddle: refinement stalls there, so the cell is meshed again on
+ * sub-cells, and the count says so (0 for NULL and with refinement off).
+ * Values x fastest, less the isovalue. */
+static void test_cells_on_subcells(void) {
+    static double data[8] = {-7.102, 20.898, -106.102, -87.102,
+                             33.898, -77.102, -49.102, 161.898};
+    pmc_volume v;
+    pmc_options *o = pmc_options_new();
+    pmc_mesh *m = NULL;
+    cube_volume(&v, data, 2);
+    CHECK(pmc_mesh_cells_on_subcells(NULL) == 0);
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.0), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 0.0, o, &m), PMC_STATUS_OK);
+    CHECK(pmc_mesh_cells_on_subcells(m) == 0);
+    pmc_mesh_free(m);
+    m = NULL;
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.01), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_max_level(o, 5), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 0.0, o, &m), PMC_STATUS_OK);
+    CHECK(pmc_mesh_cells_on_subcells(m) == 1);
+    pmc_mesh_free(m);
+    pmc_options_free(o);
+}
+
 int main(void) {
     test_layout();
     test_sphere();
@@ -488,5 +513,6 @@ int main(void) {
     test_nonfinite_samples();
     test_cells_refined_on_faces_only();
     test_recut_polygons();
+    test_cells_on_subcells();
     return test_finish("test_extract");
 }
