@@ -50,7 +50,8 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// alone would break the cap, instead of refining it to the end.
     pub leaf_budget: u64,
     /// Squared length (local units) above which an edge of a leaf at the
-    /// last level that is still farther than epsilon counts in
+    /// last level that is still farther than epsilon (and than
+    /// [`crate::subcells::STALL_SAG`] of its length) counts in
     /// [`Counters::stalled_leaves`]; infinite to not look.
     pub stall_len2: f64,
 }
@@ -682,7 +683,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
 
     /// Whether any sample of `t` is above epsilon (for the statistics at the
     /// maximum level), and whether such an edge is longer than
-    /// [`Refiner::stall_len2`] allows.
+    /// [`Refiner::stall_len2`] allows and sags as a fold does.
     fn above(&mut self, t: &Tri) -> (bool, bool) {
         let mut far = false;
         for e in 0..3 {
@@ -691,11 +692,16 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             if (far && !long) || t.near & (1 << e) != 0 {
                 continue;
             }
-            if seems_far::<F>(self.cell, self.iso, (a + b) * 0.5, t.fixed[e], self.epsilon) {
-                if long {
+            let m = (a + b) * 0.5;
+            if seems_far::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon) {
+                far = true;
+                let sag = crate::subcells::STALL_SAG * (b - a).length();
+                if long
+                    && (sag <= self.epsilon
+                        || seems_far::<F>(self.cell, self.iso, m, t.fixed[e], sag))
+                {
                     return (true, true);
                 }
-                far = true;
             }
         }
         (far, false)

@@ -47,6 +47,16 @@ const SUB_LEVELS: u32 = SUB.trailing_zeros();
 /// an eighth of that.
 const STALL_FACTOR: f64 = 8.0;
 
+/// A long edge of a last-level leaf counts as stalled only when its
+/// midpoint is farther from `S_K` than this fraction of its length (and
+/// than epsilon): across a fold the chord misses `S_K` by a good part of
+/// its length (an eighth to several times it on the EPI scan), while a
+/// long edge over a smoothly curved sheet, which more levels would bring
+/// within epsilon, misses it by a hundredth (Marschner-Lobb at epsilon
+/// 0.001: 400 cells meshed again, three times the time, for the same
+/// max distance, before this bound).
+pub(crate) const STALL_SAG: f64 = 1.0 / 16.0;
+
 /// Squared distance (local units) within which a new outline point is the
 /// old one at the same place, rounded differently.
 const WELD2: f64 = 1e-18;
@@ -90,8 +100,8 @@ pub(crate) fn allowed(options: &Options) -> bool {
 
 /// [`crate::refine::Refiner::stall_len2`] for refinement to `max_level`
 /// with re-meshing allowed: a leaf at the last level with an edge still
-/// farther than epsilon and longer than [`STALL_FACTOR`] `2^-max_level`
-/// shows a stalled refinement (converging refinement leaves such edges
+/// farther than epsilon (and than [`STALL_SAG`] of its length) and longer
+/// than [`STALL_FACTOR`] `2^-max_level` shows a stalled refinement (converging refinement leaves such edges
 /// about an eighth of that long; edges kept whole by splits elsewhere are
 /// near, not far). Infinite below level 3, where the sub-cells' levels
 /// would exceed `max_level`.

@@ -375,6 +375,7 @@ void vtkPreciseMarchingCubes::ResetStatistics()
   this->NumberOfFacesAboveEpsilon = 0;
   this->NumberOfCellsRefinedOnFacesOnly = 0;
   this->NumberOfRecutPolygons = 0;
+  this->NumberOfCellsOnSubcells = 0;
   this->BudgetReached = false;
   this->ExecutionTime = 0.0;
 }
@@ -785,6 +786,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     this->NumberOfFacesAboveEpsilon += stats.faces_above_epsilon;
     this->NumberOfCellsRefinedOnFacesOnly += pmc_mesh_cells_refined_on_faces_only(mesh.get());
     this->NumberOfRecutPolygons += pmc_mesh_recut_polygons(mesh.get());
+    this->NumberOfCellsOnSubcells += pmc_mesh_cells_on_subcells(mesh.get());
     this->BudgetReached = this->BudgetReached || stats.budget_reached;
     totalPoints += selection.NumberOfPoints;
     totalTriangles += selection.NumberOfTriangles;
@@ -1279,6 +1281,7 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "NumberOfCellsRefinedOnFacesOnly: " << this->NumberOfCellsRefinedOnFacesOnly
      << "\n";
   os << indent << "NumberOfRecutPolygons: " << this->NumberOfRecutPolygons << "\n";
+  os << indent << "NumberOfCellsOnSubcells: " << this->NumberOfCellsOnSubcells << "\n";
   os << indent << "BudgetReached: " << (this->BudgetReached ? "true" : "false") << "\n";
   os << indent << "ExecutionTime: " << this->ExecutionTime << "\n";
   os << indent << "NumberOfExecutions: " << this->NumberOfExecutions << "\n";

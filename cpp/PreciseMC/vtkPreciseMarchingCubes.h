@@ -453,6 +453,9 @@ public:
    *   diagonals before refining, because refinement could not bring a
    *   diagonal of the case table's onto the isosurface (0 with
    *   refinement off).
+   * - NumberOfCellsOnSubcells: cells where refinement stalled on a fold
+   *   or neck of the isosurface and that were meshed again on 4x4x4
+   *   sub-cells (trilinear filter and topology, MaxLevel >= 3 only).
    * - BudgetReached: whether MaxTriangles (or the library's safety cap)
    *   stopped refinement early for some contour value.
    * - ExecutionTime: wall time of the library calls, seconds.
@@ -469,6 +472,7 @@ public:
   vtkGetMacro(NumberOfFacesAboveEpsilon, vtkTypeUInt64);
   vtkGetMacro(NumberOfCellsRefinedOnFacesOnly, vtkTypeUInt64);
   vtkGetMacro(NumberOfRecutPolygons, vtkTypeUInt64);
+  vtkGetMacro(NumberOfCellsOnSubcells, vtkTypeUInt64);
   vtkGetMacro(BudgetReached, bool);
   vtkGetMacro(ExecutionTime, double);
   ///@}
@@ -519,6 +523,7 @@ protected:
   vtkTypeUInt64 NumberOfFacesAboveEpsilon;
   vtkTypeUInt64 NumberOfCellsRefinedOnFacesOnly;
   vtkTypeUInt64 NumberOfRecutPolygons;
+  vtkTypeUInt64 NumberOfCellsOnSubcells;
   bool BudgetReached;
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;

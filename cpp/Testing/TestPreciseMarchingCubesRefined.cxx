@@ -18,7 +18,9 @@
 
 #include "PreciseMCTestUtilities.h"
 
+#include "vtkImageData.h"
 #include "vtkImplicitPolyDataDistance.h"
+#include "vtkPointData.h"
 #include "vtkMarchingCubes.h"
 #include "vtkQuadric.h"
 #include "vtkRTAnalyticSource.h"
@@ -220,6 +222,51 @@ int main(int, char*[])
     ok &= RunCase("random float", image, 0.5, vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR);
     auto bytes = pmctest::RandomVolume(VTK_UNSIGNED_CHAR, dims, 0, 256, 6);
     ok &= RunCase("random unsigned char", bytes, 127.5, vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR);
+  }
+  {
+    // A cell of a real scan (values less the isovalue, x fastest) where
+    // the isosurface folds through a neck at a face's saddle: refinement
+    // stalls there and the cell is meshed again on sub-cells, which the
+    // statistics report; with refinement off nothing is.
+    const double values[8] = { -7.102, 20.898, -106.102, -87.102, 33.898, -77.102, -49.102,
+      161.898 };
+    vtkNew<vtkImageData> cell;
+    cell->SetDimensions(2, 2, 2);
+    cell->AllocateScalars(VTK_DOUBLE, 1);
+    for (int i = 0; i < 8; ++i)
+    {
+      cell->GetPointData()->GetScalars()->SetComponent(i, 0, values[i]);
+    }
+    vtkNew<vtkPreciseMarchingCubes> filter;
+    filter->SetInputData(cell);
+    filter->SetValue(0, 0.0);
+    filter->SetEpsilon(0.01);
+    filter->SetMaxLevel(5);
+    filter->SetOutputPointsPrecision(vtkAlgorithm::DOUBLE_PRECISION);
+    filter->Update();
+    vtkPolyData* out = filter->GetOutput();
+    double worst = 0.0;
+    for (vtkIdType i = 0; i < out->GetNumberOfPoints(); ++i)
+    {
+      double x[3], g[3];
+      out->GetPoint(i, x);
+      const double f = Trilinear(cell, x, g);
+      worst = std::max(worst, std::fabs(f) / std::sqrt(vtkMath::Dot(g, g)));
+    }
+    std::cout << "fold cell: " << filter->GetNumberOfCellsOnSubcells() << " cell on sub-cells, "
+              << out->GetNumberOfCells() << " triangles, max |F - iso| / |grad F| " << worst << "\n";
+    if (filter->GetNumberOfCellsOnSubcells() != 1 || out->GetNumberOfCells() == 0 || worst > 1e-9)
+    {
+      std::cerr << "FAIL: the fold cell should be meshed again on sub-cells, on the surface\n";
+      ok = false;
+    }
+    filter->SetEpsilon(0.0);
+    filter->Update();
+    if (filter->GetNumberOfCellsOnSubcells() != 0)
+    {
+      std::cerr << "FAIL: cells on sub-cells with refinement off\n";
+      ok = false;
+    }
   }
   std::cout << RefinedVertices << " refined vertices checked on the trilinear isosurface\n";
   if (RefinedVertices == 0)
