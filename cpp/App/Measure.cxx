@@ -5,6 +5,7 @@
 #include "Common.h"
 
 #include "precisemc.h"
+#include "vtkPreciseMarchingCubes.h"
 
 #include "vtkCellArray.h"
 #include "vtkCellArrayIterator.h"
@@ -17,63 +18,10 @@
 #include "vtkSmartPointer.h"
 
 #include <cmath>
-#include <limits>
 #include <vector>
 
 namespace pmcapp
 {
-namespace
-{
-
-bool ScalarType(int vtkType, pmc_scalar_type& type)
-{
-  switch (vtkType)
-  {
-    case VTK_CHAR:
-      type = std::numeric_limits<char>::is_signed ? PMC_SCALAR_TYPE_I8 : PMC_SCALAR_TYPE_U8;
-      return true;
-    case VTK_SIGNED_CHAR:
-      type = PMC_SCALAR_TYPE_I8;
-      return true;
-    case VTK_UNSIGNED_CHAR:
-      type = PMC_SCALAR_TYPE_U8;
-      return true;
-    case VTK_SHORT:
-      type = PMC_SCALAR_TYPE_I16;
-      return true;
-    case VTK_UNSIGNED_SHORT:
-      type = PMC_SCALAR_TYPE_U16;
-      return true;
-    case VTK_INT:
-      type = PMC_SCALAR_TYPE_I32;
-      return true;
-    case VTK_UNSIGNED_INT:
-      type = PMC_SCALAR_TYPE_U32;
-      return true;
-    case VTK_LONG:
-      type = sizeof(long) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
-      return true;
-    case VTK_UNSIGNED_LONG:
-      type = sizeof(unsigned long) == 8 ? PMC_SCALAR_TYPE_U64 : PMC_SCALAR_TYPE_U32;
-      return true;
-    case VTK_LONG_LONG:
-      type = PMC_SCALAR_TYPE_I64;
-      return true;
-    case VTK_UNSIGNED_LONG_LONG:
-      type = PMC_SCALAR_TYPE_U64;
-      return true;
-    case VTK_FLOAT:
-      type = PMC_SCALAR_TYPE_F32;
-      return true;
-    case VTK_DOUBLE:
-      type = PMC_SCALAR_TYPE_F64;
-      return true;
-    default:
-      return false;
-  }
-}
-
-}
 
 Distance MeasureDistance(
   vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter)
@@ -83,8 +31,8 @@ Distance MeasureDistance(
   {
     throw Error("--measure: the volume has no point scalars");
   }
-  pmc_scalar_type type;
-  if (!ScalarType(scalars->GetDataType(), type))
+  const int type = vtkPreciseMarchingCubes::LibraryScalarType(scalars->GetDataType());
+  if (type < 0)
   {
     throw Error(std::string("--measure: unsupported scalar type ") +
       scalars->GetDataTypeAsString());
@@ -106,7 +54,7 @@ Distance MeasureDistance(
   pmc_volume v;
   v.data = contiguous->GetVoidPointer(0);
   v.len = static_cast<uint64_t>(contiguous->GetNumberOfValues());
-  v.scalar_type = type;
+  v.scalar_type = static_cast<pmc_scalar_type>(type);
   for (int i = 0; i < 3; ++i)
   {
     v.dims[i] = static_cast<uint64_t>(dims[i]);

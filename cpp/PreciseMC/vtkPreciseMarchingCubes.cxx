@@ -152,57 +152,6 @@ std::string LastError(pmc_status status)
   return result;
 }
 
-// Map a VTK array type to the PreciseMC scalar type; false if unsupported.
-bool ScalarTypeFor(int vtkType, pmc_scalar_type& type)
-{
-  switch (vtkType)
-  {
-    case VTK_CHAR:
-      type = std::numeric_limits<char>::is_signed ? PMC_SCALAR_TYPE_I8 : PMC_SCALAR_TYPE_U8;
-      return true;
-    case VTK_SIGNED_CHAR:
-      type = PMC_SCALAR_TYPE_I8;
-      return true;
-    case VTK_UNSIGNED_CHAR:
-      type = PMC_SCALAR_TYPE_U8;
-      return true;
-    case VTK_SHORT:
-      type = PMC_SCALAR_TYPE_I16;
-      return true;
-    case VTK_UNSIGNED_SHORT:
-      type = PMC_SCALAR_TYPE_U16;
-      return true;
-    case VTK_INT:
-      type = PMC_SCALAR_TYPE_I32;
-      return true;
-    case VTK_UNSIGNED_INT:
-      type = PMC_SCALAR_TYPE_U32;
-      return true;
-    case VTK_LONG:
-      type = sizeof(long) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
-      return true;
-    case VTK_UNSIGNED_LONG:
-      type = sizeof(unsigned long) == 8 ? PMC_SCALAR_TYPE_U64 : PMC_SCALAR_TYPE_U32;
-      return true;
-    case VTK_LONG_LONG:
-      type = PMC_SCALAR_TYPE_I64;
-      return true;
-    case VTK_UNSIGNED_LONG_LONG:
-      type = PMC_SCALAR_TYPE_U64;
-      return true;
-    case VTK_ID_TYPE:
-      type = sizeof(vtkIdType) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
-      return true;
-    case VTK_FLOAT:
-      type = PMC_SCALAR_TYPE_F32;
-      return true;
-    case VTK_DOUBLE:
-      type = PMC_SCALAR_TYPE_F64;
-      return true;
-    default:
-      return false;
-  }
-}
 
 // What the progress callback needs: the filter and the part of the whole
 // execution the current call covers.
@@ -351,6 +300,44 @@ vtkPreciseMarchingCubes::~vtkPreciseMarchingCubes()
 }
 
 //------------------------------------------------------------------------------
+int vtkPreciseMarchingCubes::LibraryScalarType(int vtkType)
+{
+  switch (vtkType)
+  {
+    case VTK_CHAR:
+      return std::numeric_limits<char>::is_signed ? PMC_SCALAR_TYPE_I8 : PMC_SCALAR_TYPE_U8;
+    case VTK_SIGNED_CHAR:
+      return PMC_SCALAR_TYPE_I8;
+    case VTK_UNSIGNED_CHAR:
+      return PMC_SCALAR_TYPE_U8;
+    case VTK_SHORT:
+      return PMC_SCALAR_TYPE_I16;
+    case VTK_UNSIGNED_SHORT:
+      return PMC_SCALAR_TYPE_U16;
+    case VTK_INT:
+      return PMC_SCALAR_TYPE_I32;
+    case VTK_UNSIGNED_INT:
+      return PMC_SCALAR_TYPE_U32;
+    case VTK_LONG:
+      return sizeof(long) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
+    case VTK_UNSIGNED_LONG:
+      return sizeof(unsigned long) == 8 ? PMC_SCALAR_TYPE_U64 : PMC_SCALAR_TYPE_U32;
+    case VTK_LONG_LONG:
+      return PMC_SCALAR_TYPE_I64;
+    case VTK_UNSIGNED_LONG_LONG:
+      return PMC_SCALAR_TYPE_U64;
+    case VTK_ID_TYPE:
+      return sizeof(vtkIdType) == 8 ? PMC_SCALAR_TYPE_I64 : PMC_SCALAR_TYPE_I32;
+    case VTK_FLOAT:
+      return PMC_SCALAR_TYPE_F32;
+    case VTK_DOUBLE:
+      return PMC_SCALAR_TYPE_F64;
+    default:
+      return -1;
+  }
+}
+
+//------------------------------------------------------------------------------
 // Overload standard modified time function. If contour values are modified,
 // then this object is modified as well.
 vtkMTimeType vtkPreciseMarchingCubes::GetMTime()
@@ -489,8 +476,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
                   << numComps << " component(s)");
     return 1;
   }
-  pmc_scalar_type scalarType;
-  if (!ScalarTypeFor(inScalars->GetDataType(), scalarType))
+  const int scalarType = vtkPreciseMarchingCubes::LibraryScalarType(inScalars->GetDataType());
+  if (scalarType < 0)
   {
     vtkErrorMacro(<< "Unsupported scalar type " << inScalars->GetDataTypeAsString()
                   << ": integer and floating point arrays are supported");
@@ -621,7 +608,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   volume.data = static_cast<const char*>(contiguous->GetVoidPointer(0)) +
     static_cast<size_t>(first) * contiguous->GetDataTypeSize();
   volume.len = static_cast<uint64_t>(contiguous->GetNumberOfValues()) - first;
-  volume.scalar_type = scalarType;
+  volume.scalar_type = static_cast<pmc_scalar_type>(scalarType);
   for (int i = 0; i < 3; ++i)
   {
     volume.dims[i] = static_cast<uint64_t>(sampleDims[i]);

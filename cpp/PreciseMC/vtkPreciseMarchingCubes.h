@@ -110,6 +110,14 @@ public:
   vtkMTimeType GetMTime() override;
 
   /**
+   * The PreciseMC library's code for samples of VTK type `vtkType` (one of
+   * the PMC_SCALAR_TYPE_* values of precisemc.h), or -1 when the library
+   * cannot read that type (bit, string and variant arrays). For tools that
+   * hand VTK arrays to the C API themselves.
+   */
+  static int LibraryScalarType(int vtkType);
+
+  /**
    * How ambiguous cells are triangulated (see SetTopology()).
    */
   enum TopologyModes

@@ -722,3 +722,47 @@ def test_recut_polygons_are_counted():
     assert r.GetNumberOfRecutPolygons() > 0
     m = precise(image_from_array(values), [50.5], Epsilon=0.0)
     assert m.GetNumberOfRecutPolygons() == 0
+
+
+def test_library_scalar_type_and_unsupported_arrays():
+    from vtkmodules import vtkCommonCore as core
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    # The codes of precisemc.h's PMC_SCALAR_TYPE_*, for every numeric VTK type.
+    expected = {core.VTK_SIGNED_CHAR: 0, core.VTK_UNSIGNED_CHAR: 1, core.VTK_SHORT: 2,
+                core.VTK_UNSIGNED_SHORT: 3, core.VTK_INT: 4, core.VTK_UNSIGNED_INT: 5,
+                core.VTK_LONG_LONG: 6, core.VTK_UNSIGNED_LONG_LONG: 7, core.VTK_FLOAT: 8,
+                core.VTK_DOUBLE: 9, core.VTK_ID_TYPE: 6, core.VTK_LONG: 6,
+                core.VTK_UNSIGNED_LONG: 7, core.VTK_CHAR: 0}
+    for vtk_type, code in expected.items():
+        assert vtkPreciseMarchingCubes.LibraryScalarType(vtk_type) == code, vtk_type
+    for vtk_type in (core.VTK_BIT, core.VTK_STRING, core.VTK_VARIANT, core.VTK_VOID):
+        assert vtkPreciseMarchingCubes.LibraryScalarType(vtk_type) == -1
+    # A bit array is refused with an error naming its type, and no output.
+    image = vtkImageData()
+    image.SetDimensions(3, 3, 3)
+    bits = core.vtkBitArray()
+    bits.SetNumberOfTuples(27)
+    for i in range(27):
+        bits.SetValue(i, i % 2)
+    image.GetPointData().SetScalars(bits)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 0.5)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert errors.errors and "Unsupported scalar type bit" in errors.errors[-1]
+    assert f.GetOutput().GetNumberOfPoints() == 0
+
+
+def test_cells_on_subcells_are_counted():
+    # A cell of the EPI scan of the benchmark (values less the isovalue, x
+    # fastest) where the surface folds through a neck: refinement stalls
+    # and the cell is meshed again on sub-cells.
+    f = np.array([-7.102, 20.898, -106.102, -87.102, 33.898, -77.102, -49.102, 161.898])
+    values = f.reshape(2, 2, 2)  # (z, y, x)
+    r = precise(image_from_array(values), [0.0], Epsilon=0.01, MaxLevel=5)
+    assert r.GetNumberOfCellsOnSubcells() == 1
+    assert r.GetOutput().GetNumberOfPolys() > 0
+    m = precise(image_from_array(values), [0.0], Epsilon=0.0)
+    assert m.GetNumberOfCellsOnSubcells() == 0
