@@ -1307,12 +1307,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     {
                         break;
                     }
-                    for v in out.verts.drain(v_start..) {
-                        map.remove(&key(v));
-                    }
-                    local.clear();
-                    out.tris.truncate(t_start);
-                    out.levels.truncate(t_start);
+                    drop_patch(&mut out, &mut map, &mut local, t_start, v_start);
                     let samples = out.counters.samples;
                     out.counters = before.clone();
                     out.counters.samples = samples;
@@ -1424,6 +1419,24 @@ struct CellAt<'a> {
     above_before: u64,
 }
 
+/// Removes a cell's patch from the slab: its triangles (and their levels)
+/// from `t_start` on and the points it made, from `v_start` on, with their
+/// entries in the welding maps.
+fn drop_patch(
+    out: &mut SlabOut,
+    map: &mut KeyMap<u32>,
+    local: &mut KeyMap<u32>,
+    t_start: usize,
+    v_start: usize,
+) {
+    for v in out.verts.drain(v_start..) {
+        map.remove(&key(v));
+    }
+    local.clear();
+    out.tris.truncate(t_start);
+    out.levels.truncate(t_start);
+}
+
 /// Numbers the points of a patch `0..` in order of first use: the
 /// patch's triangles over those numbers, and the ids in that order.
 fn renumber(tris: impl Iterator<Item = [u32; 3]>) -> (Vec<[u32; 3]>, Vec<u32>) {
@@ -1507,11 +1520,7 @@ fn remesh_cell(
     };
     let old_levels = out.levels.split_off(at.t_start);
     recount(out, &old_levels, &new, at, max_level);
-    for v in out.verts.drain(at.v_start..) {
-        map.remove(&key(v));
-    }
-    local.clear();
-    out.tris.truncate(at.t_start);
+    drop_patch(out, map, local, at.t_start, at.v_start);
     let base = ids.len();
     let mut new_id = vec![u32::MAX; base + new.points.len()];
     for t in &new.tris {

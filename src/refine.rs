@@ -425,11 +425,7 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
     let (Some(q), true, 0) = (s.split, s.failed, fixed) else {
         return s;
     };
-    let (a, b) = if a.to_array() <= b.to_array() {
-        (a, b)
-    } else {
-        (b, a)
-    };
+    let (a, b) = ordered(a, b);
     let e = b - a;
     if ((q - m).dot(e)).abs() <= 0.25 * e.length_squared() {
         return s;
@@ -442,6 +438,17 @@ pub(crate) fn sample_edge<F: ReconstructionFilter>(
         }
     }
     s
+}
+
+/// The ends of an edge in a fixed order (lexicographic), so that what is
+/// computed from them does not depend on the order they came in.
+#[inline]
+fn ordered(a: DVec3, b: DVec3) -> (DVec3, DVec3) {
+    if a.to_array() <= b.to_array() {
+        (a, b)
+    } else {
+        (b, a)
+    }
 }
 
 /// Where `S_K` bows more than epsilon away from the interior edge `a b`
@@ -470,11 +477,7 @@ fn bulge<F: ReconstructionFilter>(
     epsilon: f64,
     fallback: bool,
 ) -> Option<DVec3> {
-    let (a, b) = if a.to_array() <= b.to_array() {
-        (a, b)
-    } else {
-        (b, a)
-    };
+    let (a, b) = ordered(a, b);
     let m = (a + b) * 0.5;
     let e = b - a;
     let (a2, a3) = F::line_cubic(cell, m, e)?;
