@@ -89,3 +89,16 @@ pub struct Mesh {
     /// Statistics of the extraction.
     pub stats: Stats,
 }
+
+impl Mesh {
+    /// Gives the mesh's arrays back to the library for later extractions
+    /// (as the C API's `pmc_mesh_free` does), instead of freeing them. A
+    /// program that extracts again and again (a slider over the isovalue,
+    /// a time series) then writes into memory that is already mapped: on a
+    /// small volume, faulting the output's pages in afresh can take as long
+    /// as contouring it. At most [`crate::RETAIN_LIMIT`] bytes are kept in
+    /// all; [`crate::release_retained_memory`] frees them.
+    pub fn recycle(self) {
+        crate::recycle::give_mesh(self);
+    }
+}
