@@ -152,7 +152,6 @@ std::string LastError(pmc_status status)
   return result;
 }
 
-
 // What the progress callback needs: the filter and the part of the whole
 // execution the current call covers.
 struct ProgressState
