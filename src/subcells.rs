@@ -119,7 +119,9 @@ pub(crate) fn stall_len2(max_level: u32) -> f64 {
 pub(crate) struct Remeshed {
     /// New points, local units.
     pub points: Vec<DVec3>,
+    /// Triangles over the old patch's points and then `points`.
     pub tris: Vec<[u32; 3]>,
+    /// Refinement level per triangle of `tris`.
     pub levels: Vec<u8>,
     /// Leaves of the sub-cell refinement still above epsilon.
     pub above_eps: u64,
@@ -190,7 +192,8 @@ pub(crate) fn remesh(
         f.dedup();
         f
     };
-    if froms(&old_arcs).len() != old_arcs.len() || froms(&old_arcs) != froms(&new_arcs) {
+    let old_froms = froms(&old_arcs);
+    if old_froms.len() != old_arcs.len() || old_froms != froms(&new_arcs) {
         return None;
     }
     // The old patch's point on each grid edge of the cell.
@@ -198,11 +201,10 @@ pub(crate) fn remesh(
     for a in &old_arcs {
         on_edge.insert(a.from, a.verts[0]);
     }
-    // New points: those on grid edges become the old ones, the rest are
-    // numbered after the old points.
     // New points on grid edges are the old ones there; a new outline
     // point that is an old one up to rounding (the same face edge split
-    // alike at both scales) is welded to it.
+    // alike at both scales) is welded to it; the rest are numbered after
+    // the old points.
     let mut old_of: Vec<Option<u32>> = vec![None; new_pos.len()];
     for (v, p) in new_pos.iter().enumerate() {
         if let Some(e) = grid_edge(*p) {
