@@ -1530,10 +1530,23 @@ fn remesh_cell(
             if new_id[v] == u32::MAX {
                 let next = out.verts.len() as u32;
                 new_id[v] = if v >= base {
-                    // Strictly inside the cell or on a face inside the
-                    // outline: this cell's alone.
-                    out.verts.push(at.cell_f + new.points[v - base]);
-                    next
+                    let lp = new.points[v - base];
+                    let gp = at.cell_f + lp;
+                    if lp.cmpeq(DVec3::ZERO).any() || lp.cmpeq(DVec3::ONE).any() {
+                        // On the new outline, in a face: a neighbour meshed
+                        // again too makes the same point (the face's
+                        // sub-samples and decisions are alike on both
+                        // sides) and must find it, for the two strips
+                        // between the outlines to cancel.
+                        *map.entry(key(gp)).or_insert_with(|| {
+                            out.verts.push(gp);
+                            next
+                        })
+                    } else {
+                        // Strictly inside the cell: this cell's alone.
+                        out.verts.push(gp);
+                        next
+                    }
                 } else if (ids[v] as usize) < at.v_start {
                     ids[v]
                 } else {

@@ -20,7 +20,9 @@
 //! edges is joined by a strip of triangles lying in the face, between two
 //! polylines inscribed in the same curve. The surface stays closed and
 //! consistently oriented; the strip is within the outlines' own distance
-//! to `S_K`.
+//! to `S_K`. Where the neighbour is meshed again too, both make the same
+//! fine outline in the face and the same strips, oppositely oriented
+//! (see [`zip`]): the strips cancel at assembly and the fine patches meet.
 
 use std::cell::Cell;
 use std::collections::HashMap;
@@ -358,7 +360,36 @@ fn outline(pos: &[DVec3], tris: &[[u32; 3]]) -> Option<Vec<Arc>> {
 /// first; the old arc's edges keep their direction (the neighbour uses
 /// them reversed) and the new arc's are reversed (the new patch uses them
 /// forward).
+///
+/// The walk starts from the arc's end that comes first in coordinate
+/// order, whichever way the arc runs: a neighbour meshed again too runs
+/// the same two arcs the other way and must build the same strip, with
+/// the opposite orientation, for the two strips to cancel (see
+/// [`crate::assemble`]) and its fine outline to meet this one.
 fn zip(r: &[u32], g: &[u32], pos: &impl Fn(u32) -> DVec3, out: &mut Vec<[u32; 3]>) -> Option<()> {
+    let (first, last) = (pos(r[0]), pos(r[r.len() - 1]));
+    if last.to_array() < first.to_array() {
+        let (rr, gr): (Vec<u32>, Vec<u32>) = (
+            r.iter().rev().copied().collect(),
+            g.iter().rev().copied().collect(),
+        );
+        let from = out.len();
+        zip_forward(&rr, &gr, pos, out)?;
+        for t in &mut out[from..] {
+            t.swap(1, 2);
+        }
+        return Some(());
+    }
+    zip_forward(r, g, pos, out)
+}
+
+/// [`zip`] from `r[0]` and `g[0]` on.
+fn zip_forward(
+    r: &[u32],
+    g: &[u32],
+    pos: &impl Fn(u32) -> DVec3,
+    out: &mut Vec<[u32; 3]>,
+) -> Option<()> {
     let (m, n) = (r.len() - 1, g.len() - 1);
     let (mut j, mut i) = (0, 0);
     while j < m || i < n {

@@ -127,3 +127,115 @@ fn remeshed_random_fields_stay_closed_deterministic_and_on_the_surface() {
     }
     assert!(remeshed >= 10, "only {remeshed} meshes had a remeshed cell");
 }
+
+/// The fold cells in every orientation (axis permutation, then
+/// reflections), each paired with its mirror image across its face on
+/// the high side of `axis`, both cells walled in by a layer of outside
+/// samples: returns the values and the volume's dimensions. The two
+/// cells hold the same fold, so both are meshed again.
+fn mirrored_pair(f: &[f64; 8], perm: [usize; 3], flip: u32, axis: usize) -> (Vec<f64>, [usize; 3]) {
+    let mut dims = [4, 4, 4];
+    dims[axis] = 5;
+    let mut values = vec![-300.0; dims[0] * dims[1] * dims[2]];
+    for z in 1..dims[2] - 1 {
+        for y in 1..dims[1] - 1 {
+            for x in 1..dims[0] - 1 {
+                let mut c = [x - 1, y - 1, z - 1];
+                if c[axis] == 2 {
+                    c[axis] = 0;
+                }
+                for (a, x) in c.iter_mut().enumerate() {
+                    if flip >> a & 1 == 1 {
+                        *x = 1 - *x;
+                    }
+                }
+                values[x + dims[0] * (y + dims[1] * z)] =
+                    f[c[perm[0]] + 2 * c[perm[1]] + 4 * c[perm[2]]];
+            }
+        }
+    }
+    (values, dims)
+}
+
+#[test]
+fn face_adjacent_remeshed_cells_share_their_fine_outline() {
+    // Each cell meshed again joins its fine outline to the old one with a
+    // strip in each face its surface crosses. Where the neighbour across
+    // the face is meshed again too, the two strips are the same triangles
+    // with opposite orientations: they cancel, and the two fine outlines
+    // are one (the face's sub-samples are alike on both sides). Before,
+    // the strips stayed, a double layer in the face, over two unwelded
+    // copies of the fine outline.
+    const PERMS: [[usize; 3]; 6] = [
+        [0, 1, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [0, 2, 1],
+        [2, 1, 0],
+        [1, 0, 2],
+    ];
+    let mut pairs = 0;
+    for f in FOLDS {
+        for perm in PERMS {
+            for flip in 0..8 {
+                for axis in 0..3 {
+                    let (values, dims) = mirrored_pair(&f, perm, flip, axis);
+                    let v = Volume::new(&values, dims_u64(dims));
+                    let opts = |threads| Options {
+                        epsilon: 0.01,
+                        max_level: 5,
+                        rule: Rule::A1,
+                        threads,
+                        ..Options::default()
+                    };
+                    let m = extract(&v, 0.0, &opts(1)).unwrap();
+                    let what = format!("{f:?} {perm:?} flip {flip} axis {axis}");
+                    assert!(m.stats.cells_on_subcells >= 2, "{what}");
+                    pairs += 1;
+                    let c = check_mesh(&m);
+                    assert!(
+                        c.is_closed_oriented_manifold() && c.unreferenced == 0,
+                        "{what}: {c:?}"
+                    );
+                    assert!(signed_volume(&m.index_points, &m.triangles) > 0.0, "{what}");
+                    // No strip left in the shared face (coordinate 2 along
+                    // `axis`, 1 to 2 along the others; a wall cell meshed
+                    // again next to one that is not keeps its strips),
+                    // and no point twice.
+                    let in_shared_face = |p: [f64; 3]| {
+                        (0..3).all(|a| {
+                            if a == axis {
+                                p[a] == 2.0
+                            } else {
+                                (1.0..=2.0).contains(&p[a])
+                            }
+                        })
+                    };
+                    let in_face = m
+                        .triangles
+                        .iter()
+                        .filter(|t| {
+                            t.iter()
+                                .all(|&i| in_shared_face(m.index_points[i as usize]))
+                        })
+                        .count();
+                    assert_eq!(in_face, 0, "{what}");
+                    let mut keys: Vec<[u64; 3]> = m
+                        .index_points
+                        .iter()
+                        .map(|p| p.map(|x| (x + 0.0).to_bits()))
+                        .collect();
+                    keys.sort_unstable();
+                    keys.dedup();
+                    assert_eq!(keys.len(), m.index_points.len(), "{what}: a point twice");
+                    // Two threads cut the volume into slabs, the face along
+                    // z between two of them: the same output.
+                    let two = extract(&v, 0.0, &opts(2)).unwrap();
+                    assert_eq!(m.triangles, two.triangles, "{what}");
+                    assert_eq!(m.index_points, two.index_points, "{what}");
+                }
+            }
+        }
+    }
+    assert_eq!(pairs, 2 * 6 * 8 * 3);
+}
