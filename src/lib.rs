@@ -16,7 +16,11 @@
 //!
 //! The mesh is welded, consistently oriented (normals towards lower
 //! values), crack-free, and bit-identical for any thread count and any
-//! split of the volume into pieces that share a layer of samples.
+//! split of the volume into pieces that share a layer of samples (when
+//! refining with the trilinear topology, pieces that also hold the cells
+//! across their cuts and keep their own cells' triangles: a cell meshed
+//! again on sub-cells drops its strip in a face whose neighbour is meshed
+//! again too; see the README's "How it works").
 //!
 //! ```
 //! use precisemc::{extract, Options, Volume};

@@ -73,6 +73,25 @@ namespace
 // duplicate from the ghost side and is removed as in the serial run.
 constexpr int CubicGhostSamples = 2;
 
+// Ghost samples a piece is contoured with, whose cells' triangles are not
+// output: the cubic filters' (above); with the trilinear filter, one when
+// refinement may mesh a cell again on sub-cells (trilinear topology, max
+// level 3 up): such a cell joins its fine outline to the old one by a
+// strip in each face, and where the cell across the face is meshed again
+// too the two strips cancel, in the serial run, which a piece sees only
+// with the cells across its faces. Otherwise none: image pieces share
+// their boundary samples, all the trilinear filter needs.
+int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel)
+{
+  if (reconstruction != vtkPreciseMarchingCubes::RECONSTRUCTION_TRILINEAR)
+  {
+    return CubicGhostSamples;
+  }
+  const bool subcells = topology == vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR &&
+    epsilon > 0.0 && maxLevel >= 3;
+  return subcells ? 1 : 0;
+}
+
 // Asks Linux for transparent huge pages behind a large output array that
 // nothing has written yet (where THP is in `madvise` mode): filling it
 // otherwise takes a page fault per 4 KiB, a good part of the copy's time.
@@ -508,17 +527,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       }
     }
   }
-  // The cubic filters read one sample more around every cell: the cells of
-  // the piece (ContourExtent, from RequestUpdateExtent()) are contoured
-  // together with the ghost layer the input holds around them
-  // (CubicGhostSamples), and the triangles of the ghost cells are dropped
-  // below. The prefilter of
-  // BSplineInterpolating couples whole lines of samples, so it reads all
+  // The cubic filters read one sample more around every cell, and a
+  // refined cell may depend on the cell across a face (GhostSamples()): the
+  // cells of the piece (ContourExtent, from RequestUpdateExtent()) are
+  // contoured together with the ghost layer the input holds around them,
+  // and the triangles of the ghost cells are dropped below. The prefilter
+  // of BSplineInterpolating couples whole lines of samples, so it reads all
   // the input holds (the whole volume, as requested).
-  const bool cubic = this->ReconstructionFilter != RECONSTRUCTION_TRILINEAR;
+  const int ghostSamples =
+    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
   int sampleExtent[6];
   std::copy(extent, extent + 6, sampleExtent);
-  if (cubic && this->HasContourExtent)
+  if (ghostSamples > 0 && this->HasContourExtent)
   {
     for (int i = 0; i < 3; ++i)
     {
@@ -535,10 +555,10 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], this->ContourExtent[2 * i + 1]);
       sampleExtent[2 * i] = global
         ? dataExtent[2 * i]
-        : std::max(dataExtent[2 * i], extent[2 * i] - CubicGhostSamples);
+        : std::max(dataExtent[2 * i], extent[2 * i] - ghostSamples);
       sampleExtent[2 * i + 1] = global
         ? dataExtent[2 * i + 1]
-        : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + CubicGhostSamples);
+        : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + ghostSamples);
     }
   }
   int dims[3];
@@ -1140,14 +1160,16 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 
 //------------------------------------------------------------------------------
 // The piece asked for downstream is passed upstream as is (image pieces
-// share their boundary samples, which is all the trilinear filter needs),
+// share their boundary samples, which is all plain Marching Cubes needs),
 // but without ghost levels: the surface of a ghost layer would belong to
-// two pieces. The cubic filters read one more sample around every cell: the
-// piece's extent is kept in ContourExtent (the cells contoured) and the
-// input is asked for CubicGhostSamples ghost levels around it (for an update
-// extent given as an extent, the extent grows by as many samples instead),
-// whose cells are contoured but not output. BSplineInterpolating prefilters whole lines of
-// samples, so it asks for the whole volume in one piece.
+// two pieces. The cubic filters read one more sample around every cell, and
+// refinement that may mesh cells again on sub-cells needs the cells across
+// the piece's faces (GhostSamples()): the piece's extent is kept in
+// ContourExtent (the cells contoured) and the input is asked for as many
+// ghost levels around it (for an update extent given as an extent, the
+// extent grows by as many samples instead), whose cells are contoured but
+// not output. BSplineInterpolating prefilters whole lines of samples, so it
+// asks for the whole volume in one piece.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
@@ -1160,7 +1182,9 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     return result;
   }
   int ghostLevels = 0;
-  if (this->ReconstructionFilter != RECONSTRUCTION_TRILINEAR && outInfo &&
+  const int ghostSamples =
+    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
+  if (ghostSamples > 0 && outInfo &&
     inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
@@ -1208,15 +1232,15 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     }
     else if (numPieces > 1)
     {
-      ghostLevels = CubicGhostSamples;
+      ghostLevels = ghostSamples;
     }
     else
     {
       int grown[6];
       for (int i = 0; i < 3; ++i)
       {
-        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - CubicGhostSamples);
-        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + CubicGhostSamples);
+        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - ghostSamples);
+        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + ghostSamples);
       }
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), grown, 6);
     }

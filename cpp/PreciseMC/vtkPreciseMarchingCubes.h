@@ -52,16 +52,20 @@
  * of a volume that share a layer of samples are bit-identical.
  *
  * In a distributed pipeline each piece contours the input cropped to the
- * requested update extent. With the trilinear reconstruction filter (the
- * default) no ghost levels are requested from the input: image pieces
- * share their boundary samples, so the union of the pieces' surfaces is
- * the surface of the whole volume, without cracks or overlaps. The cubic
- * filters read one more layer of samples around every cell, so they ask
- * for two ghost levels (the second gives the ghost cells next to the piece
- * their whole neighbourhood; BSplineInterpolating, whose prefilter is
- * global, asks for the whole volume) and keep only the triangles of the
- * piece's own
- * cells: the union is then again exactly the serial surface (see
+ * requested update extent. For plain Marching Cubes with the trilinear
+ * reconstruction filter (the default) no ghost levels are requested from
+ * the input: image pieces share their boundary samples, so the union of
+ * the pieces' surfaces is the surface of the whole volume, without cracks
+ * or overlaps. Refining with the trilinear topology from MaxLevel 3 up, a
+ * cell where refinement stalls is meshed again on sub-cells, and its strips
+ * in a face cancel against those of a neighbour meshed again too: the
+ * filter then asks for one ghost level, contours the cells across the
+ * piece's faces too and keeps only the triangles of the piece's own cells.
+ * The cubic filters read one more layer of samples around every cell, so
+ * they ask for two ghost levels (the second gives the ghost cells next to
+ * the piece their whole neighbourhood; BSplineInterpolating, whose
+ * prefilter is global, asks for the whole volume), likewise. The union is
+ * in every case exactly the serial surface (see
  * SetReconstructionFilter()).
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
@@ -79,10 +83,10 @@
  *
  * @warning
  * The statistics (GetNumberOfMCTriangles() and the like) describe the last
- * execution, summed (or maximised) over the contour values. With a cubic
- * reconstruction filter on a piece with a ghost layer, the counts of the
- * library (all but NumberOfRefinedTriangles, MaxLevelReached and
- * MeanLevel, which describe the output) include the ghost cells.
+ * execution, summed (or maximised) over the contour values. On a piece
+ * contoured with a ghost layer (see above), the counts of the library (all
+ * but NumberOfRefinedTriangles, MaxLevelReached and MeanLevel, which
+ * describe the output) include the ghost cells.
  *
  * @sa
  * vtkMarchingCubes vtkFlyingEdges3D vtkContourFilter vtkImageTransform
@@ -536,9 +540,9 @@ protected:
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;
 
-  // The extent whose cells are contoured, set by RequestUpdateExtent() for
-  // the cubic filters (the input may then hold a ghost layer more); when
-  // HasContourExtent is false the update extent is contoured.
+  // The extent whose cells are contoured, set by RequestUpdateExtent() when
+  // ghost cells are contoured too (the input may then hold a ghost layer
+  // more); when HasContourExtent is false the update extent is contoured.
   int ContourExtent[6];
   bool HasContourExtent;
 

@@ -23,8 +23,9 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 
 # The configurations compared: plain Marching Cubes and refined surfaces.
 # "ghosts": a filter downstream asks for a ghost level, which must not make
-# the pieces overlap (the filter asks its input for none, or for the one
-# ghost layer of samples a cubic filter reads, and outputs only its cells).
+# the pieces overlap (the filter asks its input for none, or for the ghost
+# layers that refinement on sub-cells or a cubic filter needs, and outputs
+# only its cells).
 # "same_as": the serial configuration whose triangles it must equal.
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),

@@ -647,9 +647,10 @@ def test_pieces_equal_the_serial_surface(name):
             f.UpdatePiece(piece, pieces, 0)
             parts.append(coordinate_triangles(f.GetOutput()))
             assert len(parts[-1]) > 0
-            # What the filter asked its input for: the piece alone
-            # (trilinear), two ghost samples more (cubic), or the whole volume.
-            ghosts = {"Trilinear": 0, "CatmullRom": 2, "BSpline": 2}.get(name)
+            # What the filter asked its input for: one ghost sample more
+            # (trilinear, refined: a cell may be meshed again on sub-cells),
+            # two (cubic), or the whole volume.
+            ghosts = {"Trilinear": 1, "CatmullRom": 2, "BSpline": 2}.get(name)
             expected = [-8, 8, -8, 8, -8, 8]
             if ghosts is not None:
                 vtkExtentTranslator().PieceToExtentThreadSafe(
@@ -660,6 +661,75 @@ def test_pieces_equal_the_serial_surface(name):
         union = union[np.lexsort(union.T[::-1])]
         assert union.shape == serial.shape, f"{pieces} pieces"
         assert np.array_equal(union, serial), f"{pieces} pieces"
+
+
+# A cell of the EPI scan of the benchmark (values less the isovalue, x
+# fastest) where S_K narrows to a neck: refinement stalls there and the
+# cell is meshed again on sub-cells.
+FOLD = [-7.102, 20.898, -106.102, -87.102, 33.898, -77.102, -49.102, 161.898]
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_pieces_cut_between_two_cells_meshed_again(axis):
+    # The fold cell and its mirror image across its high face on `axis`,
+    # walled in by outside samples: both are meshed again on sub-cells,
+    # and in the serial run their strips in the shared face cancel. Two
+    # pieces cut along that face: each is contoured with the cells across
+    # the cut (one ghost sample) and must give exactly its part of the
+    # serial surface.
+    dims = [4, 4, 4]
+    dims[axis] = 5
+    values = np.full(dims[::-1], -300.0)
+    for z in range(1, dims[2] - 1):
+        for y in range(1, dims[1] - 1):
+            for x in range(1, dims[0] - 1):
+                c = [x - 1, y - 1, z - 1]
+                if c[axis] == 2:
+                    c[axis] = 0
+                values[z, y, x] = FOLD[c[0] + 2 * c[1] + 4 * c[2]]
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image_from_array(values))
+    f.SetValue(0, 0.0)
+    f.SetEpsilon(0.01)
+    f.SetMaxLevel(5)
+    f.SetOutputPointsPrecision(1)
+    f.UpdatePiece(0, 1, 0)
+    assert f.GetNumberOfCellsOnSubcells() == 2
+    serial = coordinate_triangles(f.GetOutput())
+    # No strip left in the shared face (coordinate 2 on `axis`).
+    assert not np.any(np.all(serial.reshape(-1, 3, 3)[:, :, axis] == 2.0, axis=1))
+    parts = []
+    for piece in range(2):
+        f.UpdatePiece(piece, 2, 0)
+        part = coordinate_triangles(f.GetOutput())
+        assert len(part) > 0
+        parts.append(part)
+    # The cut is the shared face: each piece holds one of the two cells.
+    spans = sorted((p.reshape(-1, 3, 3)[:, :, axis].min(), p.reshape(-1, 3, 3)[:, :, axis].max())
+                   for p in parts)
+    assert spans[0][1] <= 2.0 <= spans[1][0]
+    union = np.concatenate(parts)
+    union = union[np.lexsort(union.T[::-1])]
+    assert union.shape == serial.shape
+    assert np.array_equal(union, serial)
+    # Control: the two halves contoured alone (no cells across the cut)
+    # each keep their strips in the cut, which the serial run has not.
+    from vtkmodules.vtkImagingCore import vtkExtractVOI
+    alone = []
+    for lo, hi in ((0, 2), (2, 4)):
+        voi = vtkExtractVOI()
+        voi.SetInputData(image_from_array(values))
+        bounds = [0, dims[0] - 1, 0, dims[1] - 1, 0, dims[2] - 1]
+        bounds[2 * axis], bounds[2 * axis + 1] = lo, hi
+        voi.SetVOI(*bounds)
+        voi.Update()
+        half = precise(voi.GetOutput(), [0.0], Epsilon=0.01, MaxLevel=5).GetOutput()
+        alone.append(coordinate_triangles(half))
+    xyz = np.concatenate(alone).reshape(-1, 3, 3)
+    others = [a for a in range(3) if a != axis]
+    in_face = np.all(xyz[:, :, axis] == 2.0, axis=1) & np.all(
+        (xyz[:, :, others] >= 1.0) & (xyz[:, :, others] <= 2.0), axis=(1, 2))
+    assert in_face.sum() > 0
 
 
 @pytest.mark.parametrize("name", ["CatmullRom", "BSpline"])
