@@ -976,6 +976,12 @@ pmc_status pmc_options_set_executor(struct pmc_options *options, pmc_executor_fn
  * one volume that share a layer of samples produce bit-identical points
  * where they meet: set each piece's offset to its extent start and its
  * `pmc_volume::origin` to the world position of global index 0.
+ * Refining with the trilinear topology from max level 3 up, give each
+ * piece one more layer of samples beyond each cut too, and keep only the
+ * triangles of its own cells (a triangle belongs to the cell of the floor
+ * of its smallest index coordinates), as the VTK filter does: a cell
+ * meshed again on sub-cells drops its strip in a face whose neighbour is
+ * meshed again too only when the piece holds that neighbour.
  *
  * Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options or offset. Offsets
  * beyond +/-2^50 are rejected by `pmc_extract`.
