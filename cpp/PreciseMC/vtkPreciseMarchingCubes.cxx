@@ -527,18 +527,19 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       }
     }
   }
-  // The cubic filters read one sample more around every cell, and a
-  // refined cell may depend on the cell across a face (GhostSamples()): the
-  // cells of the piece (ContourExtent, from RequestUpdateExtent()) are
-  // contoured together with the ghost layer the input holds around them,
-  // and the triangles of the ghost cells are dropped below. The prefilter
-  // of BSplineInterpolating couples whole lines of samples, so it reads all
-  // the input holds (the whole volume, as requested).
+  // The cells of the piece (ContourExtent, from RequestUpdateExtent()) are
+  // contoured. The cubic filters read one sample more around every cell,
+  // and a refined cell may depend on the cell across a face
+  // (GhostSamples()): then the ghost layer the input holds around the piece
+  // is contoured too, and the triangles of the ghost cells are dropped
+  // below. The prefilter of BSplineInterpolating couples whole lines of
+  // samples, so it reads all the input holds (the whole volume, as
+  // requested).
   const int ghostSamples =
     GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
   int sampleExtent[6];
   std::copy(extent, extent + 6, sampleExtent);
-  if (ghostSamples > 0 && this->HasContourExtent)
+  if (this->HasContourExtent)
   {
     for (int i = 0; i < 3; ++i)
     {
@@ -1162,14 +1163,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 // The piece asked for downstream is passed upstream as is (image pieces
 // share their boundary samples, which is all plain Marching Cubes needs),
 // but without ghost levels: the surface of a ghost layer would belong to
-// two pieces. The cubic filters read one more sample around every cell, and
-// refinement that may mesh cells again on sub-cells needs the cells across
-// the piece's faces (GhostSamples()): the piece's extent is kept in
-// ContourExtent (the cells contoured) and the input is asked for as many
-// ghost levels around it (for an update extent given as an extent, the
-// extent grows by as many samples instead), whose cells are contoured but
-// not output. BSplineInterpolating prefilters whole lines of samples, so it
-// asks for the whole volume in one piece.
+// two pieces. The piece's extent is kept in ContourExtent (the cells
+// contoured) in every case: a source shared with another consumer that
+// asked for ghost levels may still hold its ghost layer, which must not be
+// contoured (in pvbatch under MPI, a trilinear Precise Contour after a
+// refined one contoured it, overlapping the pieces). The cubic filters read
+// one more sample around every cell, and refinement that may mesh cells
+// again on sub-cells needs the cells across the piece's faces
+// (GhostSamples()): the input is asked for as many ghost levels around the
+// piece (for an update extent given as an extent, the extent grows by as
+// many samples instead), whose cells are contoured but not output.
+// BSplineInterpolating prefilters whole lines of samples, so it asks for
+// the whole volume in one piece.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
@@ -1184,8 +1189,7 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   int ghostLevels = 0;
   const int ghostSamples =
     GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
-  if (ghostSamples > 0 && outInfo &&
-    inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  if (outInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
     inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);

@@ -540,9 +540,9 @@ protected:
   double ExecutionTime;
   vtkTypeUInt64 NumberOfExecutions;
 
-  // The extent whose cells are contoured, set by RequestUpdateExtent() when
-  // ghost cells are contoured too (the input may then hold a ghost layer
-  // more); when HasContourExtent is false the update extent is contoured.
+  // The extent whose cells are contoured, set by RequestUpdateExtent() (the
+  // input may hold a ghost layer more); when HasContourExtent is false (no
+  // whole extent known) the update extent is contoured.
   int ContourExtent[6];
   bool HasContourExtent;
 

@@ -30,6 +30,9 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     "refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1"),
+    # After "refined", which asks for a ghost level (a cell may be meshed
+    # again on sub-cells): the shared Wavelet still holds that layer, which
+    # this one (no ghost level: classic topology) must not contour.
     "refined-classic-B": dict(Epsilon=0.002, MaxLevel=3, Rule="B", Topology="Classic"),
     "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
     # On vtkSMPTools tasks: the serial run of "refined", bit for bit.
