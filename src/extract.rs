@@ -1532,7 +1532,7 @@ fn remesh_cell(
                 new_id[v] = if v >= base {
                     let lp = new.points[v - base];
                     let gp = at.cell_f + lp;
-                    if lp.cmpeq(DVec3::ZERO).any() || lp.cmpeq(DVec3::ONE).any() {
+                    if subcells::faces(lp) != 0 {
                         // On the new outline, in a face: a neighbour meshed
                         // again too makes the same point (the face's
                         // sub-samples and decisions are alike on both

@@ -289,7 +289,7 @@ fn grid_edge(p: DVec3) -> Option<u8> {
 }
 
 /// Bit `2 axis + side` for each cell face that local point `p` lies on.
-fn faces(p: DVec3) -> u8 {
+pub(crate) fn faces(p: DVec3) -> u8 {
     let a = p.to_array();
     (0..3).fold(0, |m, i| {
         m | if a[i] == 0.0 {
