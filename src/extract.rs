@@ -29,6 +29,7 @@ use crate::layers::{self, LayerScratch, ScratchPool};
 use crate::mc::{cell_triangles_of_case, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
+use crate::near_bound;
 use crate::normals::compute_normals;
 use crate::options::{Options, Reconstruction};
 use crate::par::{Exec, OnCaller};
@@ -1072,10 +1073,74 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.nonfinite += 1;
                     continue;
                 };
-                // Polygons whose table diagonals refinement cannot follow
-                // are re-cut first (interior edges split only in cells
-                // free of ties; see `diagonals`).
+                // Under a cap, the leaves this cell may add before the pass
+                // is over it for sure (the other slabs' count lags behind,
+                // so this never stops a pass whose output would fit).
+                // A cell that may be meshed again on sub-cells gets room
+                // for its stalled patch beyond that (it is replaced by a
+                // patch that may fit): the check after the cell decides.
+                let produced_before = produced(&out, count_only);
+                let (remaining, leaf_budget) = if cap == u64::MAX {
+                    (u64::MAX, u64::MAX)
+                } else {
+                    let unreported = produced_before - reported;
+                    let r = cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported);
+                    let slack = if sh.subcells { STALL_SLACK } else { 0 };
+                    (r, r.saturating_add(slack))
+                };
+                // Interior edges split only in cells free of ties.
                 let refinable = Refinable::of_cell(&f);
+                // Where the bounds on the interpolant show that every test
+                // at level 0 would find its sample near, the cell keeps its
+                // Marching Cubes triangles: emit them as refinement would,
+                // without running the tests (see `near_bound`).
+                if F::MULTILINEAR
+                    && F::LINEAR_ON_EDGES
+                    && refinable.interior
+                    && !count_only
+                    && sh.max_level > 0
+                    && patch.extra.is_empty()
+                    && faces_like_marching_cubes(
+                        pos_of
+                            .chunks_exact(3)
+                            .fold(DVec3::ZERO, |a, p| a + vector_area([p[0], p[1], p[2]])),
+                        &pos_of,
+                    )
+                {
+                    let far = cell_f.abs().max_element();
+                    if let Some(samples) = near_bound::all_near(
+                        &c,
+                        sh.iso,
+                        far,
+                        &kept,
+                        &pos_of,
+                        opts.epsilon,
+                        opts.rule,
+                    ) {
+                        let n = kept.len() as u64;
+                        if n > leaf_budget {
+                            sh.over_cap.store(true, Ordering::Relaxed);
+                            break 'layers;
+                        }
+                        let t_start = out.tris.len();
+                        out.tris.extend_from_slice(&kept);
+                        out.levels.resize(out.levels.len() + kept.len(), 0);
+                        out.counters.samples += samples;
+                        out.counters.per_level[0] += n;
+                        out.counters.nodes_per_level[0] += n;
+                        note_flat(&mut out, t_start);
+                        refined_cell_done(&mut out, tr);
+                        let n = produced(&out, count_only);
+                        if (n - reported >= 4096 || n - produced_before > remaining)
+                            && report_emitted(sh, n, &mut reported, cap)
+                        {
+                            break 'layers;
+                        }
+                        continue;
+                    }
+                }
+                // Polygons whose table diagonals refinement cannot follow
+                // are re-cut first (see `diagonals`).
                 tested.clear();
                 if refinable.interior {
                     out.counters.recut_polygons += choose_diagonals::<F>(
@@ -1119,21 +1184,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // Edges on the cell's faces decide alike in every attempt,
                 // so neighbours still match.
                 const ATTEMPTS: usize = 3;
-                // Under a cap, the leaves this cell may add before the pass
-                // is over it for sure (the other slabs' count lags behind,
-                // so this never stops a pass whose output would fit).
-                // A cell that may be meshed again on sub-cells gets room
-                // for its stalled patch beyond that (it is replaced by a
-                // patch that may fit): the check after the cell decides.
-                let produced_before = produced(&out, count_only);
-                let (remaining, leaf_budget) = if cap == u64::MAX {
-                    (u64::MAX, u64::MAX)
-                } else {
-                    let unreported = produced_before - reported;
-                    let r = cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported);
-                    let slack = if sh.subcells { STALL_SLACK } else { 0 };
-                    (r, r.saturating_add(slack))
-                };
                 for attempt in 0..ATTEMPTS {
                     cache.clear();
                     count_leaves.clear();
@@ -1335,11 +1385,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 if !count_only {
                     note_flat(&mut out, t_start);
                 }
-                out.refined_cells += 1;
-                if let Some(tr) = tr {
-                    out.timed_refine += tr.elapsed();
-                    out.timed_cells += 1;
-                }
+                refined_cell_done(&mut out, tr);
                 // One row of deeply refined cells can hold far more than
                 // the cap: check after every cell that emitted many, or
                 // more than was left.
@@ -1573,6 +1619,15 @@ fn note_flat(out: &mut SlabOut, from: usize) {
         if in_grid_plane(out.tris[n].map(|v| out.verts[v as usize])) {
             out.flat_tris.push(n as u32);
         }
+    }
+}
+
+/// Counts a refined cell, and its time when it was timed (from `start`).
+fn refined_cell_done(out: &mut SlabOut, start: Option<Instant>) {
+    out.refined_cells += 1;
+    if let Some(start) = start {
+        out.timed_refine += start.elapsed();
+        out.timed_cells += 1;
     }
 }
 

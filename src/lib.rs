@@ -63,6 +63,7 @@ mod flat_map;
 mod helpers;
 mod layers;
 mod memory;
+mod near_bound;
 mod nearest;
 mod normals;
 mod par;
