@@ -1088,6 +1088,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let slack = if sh.subcells { STALL_SLACK } else { 0 };
                     (r, r.saturating_add(slack))
                 };
+                let end = CellEnd {
+                    t_start: out.tris.len(),
+                    timer: tr,
+                    produced_before,
+                    remaining,
+                };
                 // Interior edges split only in cells free of ties.
                 let refinable = Refinable::of_cell(&f);
                 // Where the bounds on the interpolant show that every test
@@ -1122,18 +1128,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             sh.over_cap.store(true, Ordering::Relaxed);
                             break 'layers;
                         }
-                        let t_start = out.tris.len();
                         out.tris.extend_from_slice(&kept);
                         out.levels.resize(out.levels.len() + kept.len(), 0);
                         out.counters.samples += samples;
                         out.counters.per_level[0] += n;
                         out.counters.nodes_per_level[0] += n;
-                        note_flat(&mut out, t_start);
-                        refined_cell_done(&mut out, tr);
-                        let n = produced(&out, count_only);
-                        if (n - reported >= 4096 || n - produced_before > remaining)
-                            && report_emitted(sh, n, &mut reported, cap)
-                        {
+                        if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                             break 'layers;
                         }
                         continue;
@@ -1382,17 +1382,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         remesh_cell(&mut out, &mut map, &mut local, &at, opts, sh.max_level);
                     }
                 }
-                if !count_only {
-                    note_flat(&mut out, t_start);
-                }
-                refined_cell_done(&mut out, tr);
-                // One row of deeply refined cells can hold far more than
-                // the cap: check after every cell that emitted many, or
-                // more than was left.
-                let n = produced(&out, count_only);
-                if (n - reported >= 4096 || n - produced_before > remaining)
-                    && report_emitted(sh, n, &mut reported, cap)
-                {
+                if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                     break 'layers;
                 }
             }
@@ -1622,13 +1612,40 @@ fn note_flat(out: &mut SlabOut, from: usize) {
     }
 }
 
-/// Counts a refined cell, and its time when it was timed (from `start`).
-fn refined_cell_done(out: &mut SlabOut, start: Option<Instant>) {
+/// Where a refined cell's output starts and what the pass had produced
+/// and had left under the cap before it (see [`refined_cell_done`]).
+struct CellEnd {
+    /// The cell's first triangle in the slab's output.
+    t_start: usize,
+    /// When the cell started, if it is one of the timed cells.
+    timer: Option<Instant>,
+    produced_before: u64,
+    remaining: u64,
+}
+
+/// Ends a refined cell: notes its flat triangles, counts it (and its time
+/// when timed), and reports the slab's output to the shared count when it
+/// grew by many or by more than was left (one row of deeply refined cells
+/// can hold far more than the cap). True when the pass is over the cap.
+fn refined_cell_done<T: Scalar, F: ReconstructionFilter>(
+    sh: &Shared<'_, T, F>,
+    out: &mut SlabOut,
+    count_only: bool,
+    end: CellEnd,
+    reported: &mut u64,
+    cap: u64,
+) -> bool {
+    if !count_only {
+        note_flat(out, end.t_start);
+    }
     out.refined_cells += 1;
-    if let Some(start) = start {
+    if let Some(start) = end.timer {
         out.timed_refine += start.elapsed();
         out.timed_cells += 1;
     }
+    let n = produced(out, count_only);
+    (n - *reported >= 4096 || n - end.produced_before > end.remaining)
+        && report_emitted(sh, n, reported, cap)
 }
 
 /// Whether the point `gp` (global index coordinates) lies in the open cell
