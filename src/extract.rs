@@ -1100,44 +1100,41 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // at level 0 would find its sample near, the cell keeps its
                 // Marching Cubes triangles: emit them as refinement would,
                 // without running the tests (see `near_bound`).
-                if F::MULTILINEAR
+                let settled = if F::MULTILINEAR
                     && F::LINEAR_ON_EDGES
                     && refinable.interior
                     && !count_only
                     && sh.max_level > 0
                     && patch.extra.is_empty()
-                    && faces_like_marching_cubes(
-                        pos_of
-                            .chunks_exact(3)
-                            .fold(DVec3::ZERO, |a, p| a + vector_area([p[0], p[1], p[2]])),
-                        &pos_of,
-                    )
                 {
                     let far = cell_f.abs().max_element();
-                    if let Some(samples) = near_bound::all_near(
-                        &c,
-                        sh.iso,
-                        far,
-                        &kept,
-                        &pos_of,
-                        opts.epsilon,
-                        opts.rule,
-                    ) {
-                        let n = kept.len() as u64;
-                        if n > leaf_budget {
-                            sh.over_cap.store(true, Ordering::Relaxed);
-                            break 'layers;
-                        }
-                        out.tris.extend_from_slice(&kept);
-                        out.levels.resize(out.levels.len() + kept.len(), 0);
-                        out.counters.samples += samples;
-                        out.counters.per_level[0] += n;
-                        out.counters.nodes_per_level[0] += n;
-                        if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
-                            break 'layers;
-                        }
-                        continue;
+                    near_bound::all_near(&c, sh.iso, far, &kept, &pos_of, opts.epsilon, opts.rule)
+                        // The patch check the refined patch would face
+                        // (unsplit, it fails only when nearly flat).
+                        .filter(|_| {
+                            let area = pos_of
+                                .chunks_exact(3)
+                                .fold(DVec3::ZERO, |a, p| a + vector_area([p[0], p[1], p[2]]));
+                            faces_like_marching_cubes(area, &pos_of)
+                        })
+                } else {
+                    None
+                };
+                if let Some(samples) = settled {
+                    let n = kept.len() as u64;
+                    if n > leaf_budget {
+                        sh.over_cap.store(true, Ordering::Relaxed);
+                        break 'layers;
                     }
+                    out.tris.extend_from_slice(&kept);
+                    out.levels.resize(out.levels.len() + kept.len(), 0);
+                    out.counters.samples += samples;
+                    out.counters.per_level[0] += n;
+                    out.counters.nodes_per_level[0] += n;
+                    if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
+                        break 'layers;
+                    }
+                    continue;
                 }
                 // Polygons whose table diagonals refinement cannot follow
                 // are re-cut first (see `diagonals`).

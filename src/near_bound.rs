@@ -43,7 +43,7 @@ struct CellBounds {
     slack: f64,
 }
 
-/// What the cheap first check of a cell needs (see [`bound`]).
+/// What the cheap first check of a cell needs (see [`all_near`]).
 struct Rough {
     /// [`CellBounds::twist`].
     twist: f64,
