@@ -1039,34 +1039,26 @@ fn tubes_of_extreme_aspect_are_closed() {
     report(failures);
 }
 
-/// BUG (refinement, Trilinear topology; open): in
-/// padded single cells whose magnitudes span six decades (tiny positive
-/// corners in a field of -1), rule A1 at (0.01, 3) and rule B at (0.01, 2)
-/// give a closed, consistently oriented mesh whose enclosed volume is
-/// negative (down to -0.13 cell volumes while the inside set is ~1e-6):
-/// refined points land far from the Marching Cubes patch and the surface
-/// folds over itself. Minimal input: 4x4x4 volume of -1 whose inner cell
-/// (samples 1..=2 on each axis) has VTK-order corner values
-/// [1.1984390145765349e-5, 1.9055151805487956e-6, -0.939794328404909,
-///  2.447138897398763e-5, -0.004613839019859177, -0.002197328390480045,
-///  -0.01203402196193081, -8.565772919685186e-5], iso 0, Trilinear, A1,
-/// epsilon 0.01, max level 3. A few of the 254 patterns fail this way.
-///
-/// What is known (2026-11-23): the inside region of such a cell is a slab
-/// far thinner than epsilon, and the Marching Cubes patch cuts across the
-/// cell. Mostly, a split point on a face edge moves along the face past
-/// the patch's diagonal, so the child on the far side of that diagonal
-/// turns over (a fold in the patch's own plane; both cells sharing the
-/// face must make the same split, so it cannot simply be refused).
-/// Sometimes a gradient line crosses the slab and lands on the other
-/// sheet or another part of `S_K` (here, a point 1.2 cells from its
-/// sample). Refusing split points where the filter's gradient opposes the
-/// sum of the gradients at the edge's ends removes the second kind but
-/// barely helps overall: over 4000 random six-decade cells, negative
-/// volumes went from 40 to 39 (A1, level 3) and 38 to 37 (B, level 2),
-/// folded area down 4 %; not kept.
+/// Regression (was a bug of refinement with the Trilinear topology, from
+/// 2026-11-23): in padded single cells whose magnitudes span six decades
+/// (tiny positive corners in a field of -1), rule A1 at (0.01, 3) and rule
+/// B at (0.01, 2) gave a closed, consistently oriented mesh whose enclosed
+/// volume was negative (down to -0.13 cell volumes while the inside set is
+/// ~1e-6): refined points landed far from the Marching Cubes patch and
+/// the surface folded over itself, in a few of these 254 patterns (for
+/// instance the 4x4x4 volume of -1 whose inner cell has VTK-order corner
+/// values [1.1984390145765349e-5, 1.9055151805487956e-6,
+/// -0.939794328404909, 2.447138897398763e-5, -0.004613839019859177,
+/// -0.002197328390480045, -0.01203402196193081, -8.565772919685186e-5],
+/// iso 0, A1, epsilon 0.01, max level 3). The inside region of such a cell
+/// is a slab far thinner than epsilon and the Marching Cubes patch cuts
+/// across the cell: a split point on a face edge moved along the face past
+/// the patch's diagonal, or a gradient line crossed the slab to another
+/// part of `S_K`. This draw of the patterns was found passing on
+/// 2026-11-26, after the checks refined patches have gained since (which
+/// one fixed it was not traced); the few cells that still fold are in
+/// [`six_decade_cells_that_still_fold`].
 #[test]
-#[ignore = "bug: refinement folds the surface of tiny inside regions (negative enclosed volume)"]
 fn sign_patterns_with_magnitudes_over_six_decades() {
     let cfgs = quick_configs();
     let mut failures = Vec::new();
@@ -1089,6 +1081,100 @@ fn sign_patterns_with_magnitudes_over_six_decades() {
         let vol = Volume::new(&p, [4, 4, 4]);
         run(
             &format!("padded {name}"),
+            &vol,
+            [4, 4, 4],
+            0.0,
+            CLOSED_MANIFOLD,
+            &cfgs,
+            &mut failures,
+        );
+    }
+    report(failures);
+}
+
+/// BUG (refinement, Trilinear topology; open): the six-decade cells of
+/// [`sign_patterns_with_magnitudes_over_six_decades`] that still fold.
+/// Sixteen more draws of the 254 patterns (4064 padded cells, the six
+/// configurations of `quick_configs` each, 2026-11-26) gave these four
+/// closed, consistently oriented meshes with a negative enclosed volume:
+/// one with rule A1 at (0.01, 3), -0.0016 cell volumes, and three with
+/// rule B at (0.01, 2), -0.0065, -0.00087 and -0.38; every other
+/// configuration of these cells, and every configuration of the other
+/// 4060, encloses a positive volume. (The draws also gave a negative
+/// volume of -6e-18 for plain Marching Cubes: rounding of a surface 1e-5
+/// cells across summed about the origin; `signed_volume` now sums about a
+/// point of the surface.)
+#[test]
+#[ignore = "bug: refinement folds the surface of a few tiny inside regions (negative enclosed volume)"]
+fn six_decade_cells_that_still_fold() {
+    let cells: [([f64; 8], Rule, u32); 4] = [
+        (
+            [
+                2.395756182788412e-5,
+                4.806082130591921e-6,
+                1.42369329036778e-6,
+                -0.5696246049080944,
+                -0.3414630432776189,
+                -6.823006378849875e-6,
+                -6.818097112384749e-5,
+                -0.00023371700381525384,
+            ],
+            Rule::A1,
+            3,
+        ),
+        (
+            [
+                -0.5844893091638395,
+                1.2196167471448446e-6,
+                -0.260707781002923,
+                0.00023050008643412236,
+                2.727041677106737e-5,
+                1.6642104428726323e-6,
+                7.191609108721424e-5,
+                1.0618179559916998e-6,
+            ],
+            Rule::B,
+            2,
+        ),
+        (
+            [
+                0.0004552638131331494,
+                -0.8880306485443248,
+                0.00011202796645566661,
+                5.842205837881773e-5,
+                -0.2456003724672143,
+                -0.1092240433778961,
+                -7.549776203330828e-6,
+                0.0002050366293367202,
+            ],
+            Rule::B,
+            2,
+        ),
+        (
+            [
+                -3.289553696850793e-6,
+                -0.18690829451026725,
+                0.0013457272838687676,
+                0.0002650875233664228,
+                0.02938135966518216,
+                0.00017091872049299162,
+                5.835277224087686e-6,
+                -0.1882265473318724,
+            ],
+            Rule::B,
+            2,
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (f, rule, level) in cells {
+        let cfgs = vec![(
+            format!("Trilinear {rule:?} 0.01/{level}"),
+            refine_opts(precisemc::Topology::Trilinear, rule, 0.01, level),
+        )];
+        let p = padded_cell(&f);
+        let vol = Volume::new(&p, [4, 4, 4]);
+        run(
+            &format!("padded cell {f:?}"),
             &vol,
             [4, 4, 4],
             0.0,
