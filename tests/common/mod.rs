@@ -632,8 +632,8 @@ pub fn check_tris(points: &[[f64; 3]], tris: &[[u64; 3]]) -> MeshCheck {
 /// away from the enclosed region). Summed about a point of the surface
 /// (the same volume for a closed mesh) rather than the origin, so that
 /// rounding scales with the surface's size, not with its distance from
-/// the origin: a surface of 1e-5 cells around index (2, 2, 2) summed about
-/// the origin came out at -6e-18.
+/// the origin: a closed surface 1e-5 cells across, two cells from the
+/// origin, came out at -6e-18 summed about the origin.
 pub fn signed_volume(points: &[[f64; 3]], tris: &[[u64; 3]]) -> f64 {
     let Some(first) = tris.first() else {
         return 0.0;
