@@ -826,6 +826,19 @@ fn padded_cell(f: &[f64; 8]) -> Vec<f64> {
     v
 }
 
+/// [`run`] on the cell `f` embedded by [`padded_cell`], at isovalue 0.
+fn run_padded(
+    name: &str,
+    f: &[f64; 8],
+    case: Case,
+    configs: &[(String, Options)],
+    failures: &mut Vec<String>,
+) -> Vec<Mesh> {
+    let p = padded_cell(f);
+    let vol = Volume::new(&p, [4, 4, 4]);
+    run(name, &vol, [4, 4, 4], 0.0, case, configs, failures)
+}
+
 /// Every sign pattern of a single cell: random magnitudes (generic), equal
 /// magnitudes (ambiguous faces then have their saddle exactly at 0: `S_K`
 /// touches itself there), and magnitudes spread over six decades; alone
@@ -859,18 +872,8 @@ fn all_sign_patterns_of_a_cell() {
                     failures.push(format!("{name}: {} triangles", m.triangles.len()));
                 }
             }
-            let p = padded_cell(&f);
-            let vol = Volume::new(&p, [4, 4, 4]);
             let case = if generic { CLOSED_MANIFOLD } else { CLOSED };
-            run(
-                &format!("padded {name}"),
-                &vol,
-                [4, 4, 4],
-                0.0,
-                case,
-                &cfgs,
-                &mut failures,
-            );
+            run_padded(&format!("padded {name}"), &f, case, &cfgs, &mut failures);
         }
     }
     assert!(total > 0);
@@ -1077,17 +1080,8 @@ fn sign_patterns_with_magnitudes_over_six_decades() {
             &cfgs,
             &mut failures,
         );
-        let p = padded_cell(&f);
-        let vol = Volume::new(&p, [4, 4, 4]);
-        run(
-            &format!("padded {name}"),
-            &vol,
-            [4, 4, 4],
-            0.0,
-            CLOSED_MANIFOLD,
-            &cfgs,
-            &mut failures,
-        );
+        let padded = format!("padded {name}");
+        run_padded(&padded, &f, CLOSED_MANIFOLD, &cfgs, &mut failures);
     }
     report(failures);
 }
@@ -1171,17 +1165,8 @@ fn six_decade_cells_that_still_fold() {
             format!("Trilinear {rule:?} 0.01/{level}"),
             refine_opts(precisemc::Topology::Trilinear, rule, 0.01, level),
         )];
-        let p = padded_cell(&f);
-        let vol = Volume::new(&p, [4, 4, 4]);
-        run(
-            &format!("padded cell {f:?}"),
-            &vol,
-            [4, 4, 4],
-            0.0,
-            CLOSED_MANIFOLD,
-            &cfgs,
-            &mut failures,
-        );
+        let name = format!("padded cell {f:?}");
+        run_padded(&name, &f, CLOSED_MANIFOLD, &cfgs, &mut failures);
     }
     report(failures);
 }
