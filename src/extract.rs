@@ -26,12 +26,12 @@ use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::helpers::with_helpers;
 use crate::layers::{self, LayerScratch, ScratchPool};
-use crate::mc::{cell_triangles_of_case, Patch};
+use crate::mc::{cell_triangles_of_case, classic, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::near_bound;
 use crate::normals::compute_normals;
-use crate::options::{Options, Reconstruction};
+use crate::options::{Options, Reconstruction, Topology};
 use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
 use crate::recycle;
@@ -40,7 +40,9 @@ use crate::refine::{
     Counters, EdgeCache, Refinable, Refiner, Tri,
 };
 use crate::subcells;
-use crate::tables::cube::{on_one_face, CORNERS, EDGES, EDGE_AXIS};
+use crate::tables::cube::{
+    on_one_face, CORNERS, CROSSED_EDGES, EDGES, EDGE_AXIS, NEEDS_TOPOLOGY_TEST,
+};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
 
@@ -822,6 +824,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let read_layer = |z: usize, ins: &mut [u8], fin: &mut [bool]| {
         read_sample_layer(&sh.grid, sh.iso, z, nxs, ins, fin)
     };
+    // A cell's point ids and local positions by patch vertex id (see
+    // `mc::Patch`). Each cell sets every entry its triangles name before
+    // reading it, so they are not cleared from cell to cell.
+    let mut ids = [u32::MAX; 16];
+    let mut loc = [DVec3::ZERO; 16];
     'layers: for k in k0..k1 {
         let (lo, hi) = (k & 1, (k + 1) & 1);
         if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
@@ -897,9 +904,16 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     f[q] = c[q] - sh.iso;
                 }
                 patch.clear();
-                if cell_triangles_of_case(case, &f, opts.topology, &mut patch) {
-                    out.ambiguous += 1;
-                }
+                // The case table's triangles, borrowed, unless the cell's
+                // trilinear topology must be decided.
+                let tris: &[[u8; 3]] =
+                    if opts.topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize] {
+                        cell_triangles_of_case(case, &f, opts.topology, &mut patch);
+                        out.ambiguous += 1;
+                        &patch.tris
+                    } else {
+                        classic::case_triangles(case)
+                    };
                 // With a filter that is not linear on grid edges, the
                 // refinement starts from crossings on its own isosurface.
                 let edge_filter = if REFINE && !F::LINEAR_ON_EDGES {
@@ -913,107 +927,108 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     sh.index_offset[2] + k as i64,
                 ];
                 let cell_f = DVec3::new(cell_g[0] as f64, cell_g[1] as f64, cell_g[2] as f64);
-                let mut ids = [u32::MAX; 16];
-                let mut loc = [DVec3::ZERO; 16];
                 kept.clear();
                 pos_of.clear();
                 let mc_start = out.tris.len();
-                for tri in &patch.tris {
-                    for &e in tri {
-                        let e = e as usize;
-                        if ids[e] == u32::MAX && e >= 12 {
-                            // An interior point of an ambiguous cell.
-                            let lp = DVec3::from_array(patch.extra[e - 12]);
-                            let gp = cell_f + lp;
-                            loc[e] = lp;
-                            if !weld_all && !count_only && !strictly_inside(gp, cell_f) {
-                                out.redo_with_map = true;
-                                break 'layers;
-                            }
-                            if count_only {
-                                ids[e] = e as u32;
-                            } else {
-                                let next = out.verts.len() as u32;
-                                ids[e] = *map.entry(key(gp)).or_insert_with(|| {
-                                    out.verts.push(gp);
-                                    next
-                                });
-                            }
-                        } else if ids[e] == u32::MAX {
-                            let [a, b] = EDGES[e];
-                            let ca = CORNERS[a as usize];
-                            let ax = EDGE_AXIS[e] as usize;
-                            // The grid edge's slot in the per-layer id cache
-                            // (not used when only counting).
-                            let (ci, cj, ck) =
-                                (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
-                            let (slots, at) = match ax {
-                                0 => (&mut edge_x[ck & 1], cj * nx + ci),
-                                1 => (&mut edge_y[ck & 1], cj * nxs + ci),
-                                _ => (&mut *edge_z, cj * nxs + ci),
-                            };
-                            let cached = layers::lookup(slots[at], stamp(ck));
-                            if let (Some(id), false) = (cached, count_only) {
-                                // A cell before this one placed the point,
-                                // with the coordinates computed below.
-                                ids[e] = id;
-                                if REFINE {
-                                    loc[e] = out.verts[id as usize] - cell_f;
-                                }
-                                continue;
-                            }
-                            let (sa, sb) = (c[a as usize], c[b as usize]);
-                            // vtkMarchingCubes: t from the lower corner.
-                            let mut t = (sh.iso - sa) / (sb - sa);
-                            if !t.is_finite() {
-                                // The difference overflowed (samples near
-                                // +-f64::MAX): the same ratio of halves.
-                                t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa))
-                                    .clamp(0.0, 1.0);
-                            }
-                            if let Some(fc) = &edge_filter {
-                                let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
-                                if let Some(s) = edge_crossing::<F>(fc, sh.iso, corner, ax) {
-                                    t = s;
-                                }
-                            }
-                            let (x, y, z) = (
-                                (cell_g[0] + ca[0] as i64) as f64,
-                                (cell_g[1] + ca[1] as i64) as f64,
-                                (cell_g[2] + ca[2] as i64) as f64,
-                            );
-                            // Built in registers: a store of one lane then
-                            // a load of the vector stalls store forwarding.
-                            let (base, gp) = match ax {
-                                0 => (x, DVec3::new(x + t, y, z)),
-                                1 => (y, DVec3::new(x, y + t, z)),
-                                _ => (z, DVec3::new(x, y, z + t)),
-                            };
-                            let moved = base + t;
-                            loc[e] = gp - cell_f;
-                            if count_only {
-                                ids[e] = e as u32;
-                            } else {
-                                let next = out.verts.len() as u32;
-                                let id = if !weld_all && moved != base && moved != base + 1.0 {
-                                    // Strictly inside the edge: first seen here.
-                                    out.verts.push(gp);
-                                    next
-                                } else {
-                                    points_on_grid_points = true;
-                                    *map.entry(key(gp)).or_insert_with(|| {
-                                        out.verts.push(gp);
-                                        next
-                                    })
-                                };
-                                slots[at] = layers::entry(stamp(ck), id);
-                                ids[e] = id;
-                            }
+                // The point on each grid edge the surface crosses, each edge
+                // once (every topology puts one point on each), then the
+                // interior points of an ambiguous cell: every id a triangle
+                // names is then set, without a test per triangle corner.
+                let (crossed, n_crossed) = &CROSSED_EDGES[case as usize];
+                for &e in &crossed[..*n_crossed as usize] {
+                    let e = e as usize;
+                    let [a, b] = EDGES[e];
+                    let ca = CORNERS[a as usize];
+                    let ax = EDGE_AXIS[e] as usize;
+                    // The grid edge's slot in the per-layer id cache
+                    // (not used when only counting).
+                    let (ci, cj, ck) = (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
+                    let (slots, at) = match ax {
+                        0 => (&mut edge_x[ck & 1], cj * nx + ci),
+                        1 => (&mut edge_y[ck & 1], cj * nxs + ci),
+                        _ => (&mut *edge_z, cj * nxs + ci),
+                    };
+                    let cached = layers::lookup(slots[at], stamp(ck));
+                    if let (Some(id), false) = (cached, count_only) {
+                        // A cell before this one placed the point, with the
+                        // coordinates computed below.
+                        ids[e] = id;
+                        if REFINE {
+                            loc[e] = out.verts[id as usize] - cell_f;
+                        }
+                        continue;
+                    }
+                    let (sa, sb) = (c[a as usize], c[b as usize]);
+                    // vtkMarchingCubes: t from the lower corner.
+                    let mut t = (sh.iso - sa) / (sb - sa);
+                    if !t.is_finite() {
+                        // The difference overflowed (samples near
+                        // +-f64::MAX): the same ratio of halves.
+                        t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa)).clamp(0.0, 1.0);
+                    }
+                    if let Some(fc) = &edge_filter {
+                        let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
+                        if let Some(s) = edge_crossing::<F>(fc, sh.iso, corner, ax) {
+                            t = s;
                         }
                     }
-                    // Gathered from `ids` once the three are known:
-                    // filling an array lane by lane and then copying it
-                    // whole stalled store forwarding (a profile hot spot).
+                    let (x, y, z) = (
+                        (cell_g[0] + ca[0] as i64) as f64,
+                        (cell_g[1] + ca[1] as i64) as f64,
+                        (cell_g[2] + ca[2] as i64) as f64,
+                    );
+                    // Built in registers: a store of one lane then a load of
+                    // the vector stalls store forwarding.
+                    let (base, gp) = match ax {
+                        0 => (x, DVec3::new(x + t, y, z)),
+                        1 => (y, DVec3::new(x, y + t, z)),
+                        _ => (z, DVec3::new(x, y, z + t)),
+                    };
+                    let moved = base + t;
+                    if REFINE || count_only {
+                        loc[e] = gp - cell_f;
+                    }
+                    if count_only {
+                        ids[e] = e as u32;
+                    } else {
+                        let next = out.verts.len() as u32;
+                        let id = if !weld_all && moved != base && moved != base + 1.0 {
+                            // Strictly inside the edge: first seen here.
+                            out.verts.push(gp);
+                            next
+                        } else {
+                            points_on_grid_points = true;
+                            *map.entry(key(gp)).or_insert_with(|| {
+                                out.verts.push(gp);
+                                next
+                            })
+                        };
+                        slots[at] = layers::entry(stamp(ck), id);
+                        ids[e] = id;
+                    }
+                }
+                for (x, lp) in patch.extra.iter().enumerate() {
+                    // An interior point of an ambiguous cell.
+                    let e = 12 + x;
+                    let lp = DVec3::from_array(*lp);
+                    let gp = cell_f + lp;
+                    loc[e] = lp;
+                    if !weld_all && !count_only && !strictly_inside(gp, cell_f) {
+                        out.redo_with_map = true;
+                        break 'layers;
+                    }
+                    if count_only {
+                        ids[e] = e as u32;
+                    } else {
+                        let next = out.verts.len() as u32;
+                        ids[e] = *map.entry(key(gp)).or_insert_with(|| {
+                            out.verts.push(gp);
+                            next
+                        });
+                    }
+                }
+                for tri in tris {
+                    debug_assert!(tri.iter().all(|&e| e >= 12 || crossed.contains(&e)));
                     let tid = tri.map(|e| ids[e as usize]);
                     if count_only {
                         // Degeneracy by position when ids are not welded.
@@ -1047,7 +1062,12 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         // Every point lies strictly inside its grid edge
                         // or its cell: a triangle is flat exactly when its
                         // three points lie on edges of one face.
-                        if patch.tris.iter().any(|&t| on_one_face(t)) {
+                        let flat = if patch.tris.is_empty() {
+                            classic::HAS_FACE_TRIANGLE[case as usize]
+                        } else {
+                            patch.tris.iter().any(|&t| on_one_face(t))
+                        };
+                        if flat {
                             note_flat(&mut out, mc_start);
                         } else {
                             debug_assert!(

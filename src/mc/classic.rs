@@ -1,5 +1,6 @@
 //! The fixed case table of `vtkMarchingCubes`.
 
+use crate::tables::cube::on_one_face;
 use crate::tables::VTK_TRIANGLE_CASES;
 
 /// The table regrouped for copying: each case's triangles as edge triples,
@@ -24,9 +25,34 @@ const TRIANGLES: [([[u8; 3]; 5], u8); 256] = {
 /// Appends the table's triangles for `case`.
 #[inline]
 pub fn triangles(case: u8, out: &mut Vec<[u8; 3]>) {
-    let (tris, n) = &TRIANGLES[case as usize];
-    out.extend_from_slice(&tris[..*n as usize]);
+    out.extend_from_slice(case_triangles(case));
 }
+
+/// The table's triangles for `case`, borrowed (no copy into a patch).
+#[inline]
+pub fn case_triangles(case: u8) -> &'static [[u8; 3]] {
+    let (tris, n) = &TRIANGLES[case as usize];
+    &tris[..*n as usize]
+}
+
+/// Whether any of the table's triangles for a case has its three points
+/// on edges of one cell face (see [`crate::tables::cube::on_one_face`]).
+pub const HAS_FACE_TRIANGLE: [bool; 256] = {
+    let mut out = [false; 256];
+    let mut c = 0;
+    while c < 256 {
+        let (tris, n) = &TRIANGLES[c];
+        let mut t = 0;
+        while t < *n as usize {
+            if on_one_face(tris[t]) {
+                out[c] = true;
+            }
+            t += 1;
+        }
+        c += 1;
+    }
+    out
+};
 
 #[cfg(test)]
 mod tests {
@@ -44,6 +70,8 @@ mod tests {
                 let want = [row[3 * t], row[3 * t + 1], row[3 * t + 2]].map(|e| e as u8);
                 assert_eq!(*tri, want, "case {case}");
             }
+            let flat = got.iter().any(|&t| on_one_face(t));
+            assert_eq!(HAS_FACE_TRIANGLE[case as usize], flat, "case {case}");
         }
     }
 }

@@ -161,6 +161,30 @@ pub const NEEDS_TOPOLOGY_TEST: [bool; 256] = {
     out
 };
 
+/// The edges the surface crosses in each case (their corners lie on
+/// either side), in increasing order, and how many. Every topology puts
+/// exactly one point on each of them, so the extraction places a cell's
+/// edge points from this list, each edge once, before its triangles.
+pub const CROSSED_EDGES: [([u8; 12], u8); 256] = {
+    let mut out = [([0u8; 12], 0u8); 256];
+    let mut c = 0;
+    while c < 256 {
+        let mut n = 0;
+        let mut e = 0;
+        while e < 12 {
+            let [a, b] = EDGES[e];
+            if ((c >> a) & 1) != ((c >> b) & 1) {
+                out[c].0[n] = e as u8;
+                n += 1;
+            }
+            e += 1;
+        }
+        out[c].1 = n as u8;
+        c += 1;
+    }
+    out
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -223,5 +247,20 @@ mod tests {
         }
         assert!(NEEDS_TOPOLOGY_TEST[0b0100_0001]); // corners 0 and 6
         assert!(!NEEDS_TOPOLOGY_TEST[1]);
+    }
+
+    #[test]
+    fn crossed_edges_are_those_with_one_corner_inside() {
+        for c in 0..=255u8 {
+            let (list, n) = CROSSED_EDGES[c as usize];
+            let list = &list[..n as usize];
+            assert!(list.windows(2).all(|w| w[0] < w[1]), "case {c}");
+            for (e, [a, b]) in EDGES.iter().enumerate() {
+                let crossed = (c >> a) & 1 != (c >> b) & 1;
+                assert_eq!(list.contains(&(e as u8)), crossed, "case {c} edge {e}");
+            }
+        }
+        assert_eq!(CROSSED_EDGES[0].1, 0);
+        assert_eq!(&CROSSED_EDGES[1].0[..3], &[0, 3, 8]);
     }
 }
