@@ -147,12 +147,26 @@ pub(crate) fn assemble(
     let found: Vec<(Vec<Candidate>, Vec<usize>)> =
         exec.map(items, |(((((o, r), &start), tri_out), level_out), &t0)| {
             let mut degenerate = Vec::new();
-            for (w, t) in o.tris.iter().enumerate() {
-                let g = t.map(|v| global(r, start, v));
+            let mut note = |w: usize, g: [u64; 3]| {
                 if g[0] == g[1] || g[1] == g[2] || g[0] == g[2] {
                     degenerate.push(t0 + w);
                 }
-                tri_out[w] = g;
+            };
+            if r.is_empty() {
+                // Numbered by a shift alone: the loop the compiler widens
+                // well (most volumes' slabs, and every single slab).
+                for (w, (t, g)) in o.tris.iter().zip(tri_out.iter_mut()).enumerate() {
+                    *g = t.map(|v| (start + v as usize) as u64);
+                    if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                        note(w, *g);
+                    }
+                }
+            } else {
+                for (w, t) in o.tris.iter().enumerate() {
+                    let g = t.map(|v| global(r, start, v));
+                    tri_out[w] = g;
+                    note(w, g);
+                }
             }
             let cand = o
                 .flat_tris

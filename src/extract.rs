@@ -815,12 +815,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let LayerScratch {
         insides,
         finite,
-        edge_x,
-        edge_y,
-        edge_z,
+        edges: edge_ids,
         cases,
         ..
     } = scratch;
+    let (edge_slots, edge_dz) = layers::cell_edge_slots(nxs, (ny + 1) * nxs);
     let read_layer = |z: usize, ins: &mut [u8], fin: &mut [bool]| {
         read_sample_layer(&sh.grid, sh.iso, z, nxs, ins, fin)
     };
@@ -935,20 +934,17 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // interior points of an ambiguous cell: every id a triangle
                 // names is then set, without a test per triangle corner.
                 let (crossed, n_crossed) = &CROSSED_EDGES[case as usize];
+                let cell_slot = j * nxs + i;
                 for &e in &crossed[..*n_crossed as usize] {
                     let e = e as usize;
                     let [a, b] = EDGES[e];
                     let ca = CORNERS[a as usize];
                     let ax = EDGE_AXIS[e] as usize;
-                    // The grid edge's slot in the per-layer id cache
-                    // (not used when only counting).
-                    let (ci, cj, ck) = (i + ca[0] as usize, j + ca[1] as usize, k + ca[2] as usize);
-                    let (slots, at) = match ax {
-                        0 => (&mut edge_x[ck & 1], cj * nx + ci),
-                        1 => (&mut edge_y[ck & 1], cj * nxs + ci),
-                        _ => (&mut *edge_z, cj * nxs + ci),
-                    };
-                    let cached = layers::lookup(slots[at], stamp(ck));
+                    // The grid edge's slot in the per-layer id cache and
+                    // the stamp of its layer (not used when only counting).
+                    let at = cell_slot + edge_slots[k & 1][e];
+                    let edge_stamp = stamp(k) + edge_dz[e];
+                    let cached = layers::lookup(edge_ids[at], edge_stamp);
                     if let (Some(id), false) = (cached, count_only) {
                         // A cell before this one placed the point, with the
                         // coordinates computed below.
@@ -1003,7 +999,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                 next
                             })
                         };
-                        slots[at] = layers::entry(stamp(ck), id);
+                        edge_ids[at] = layers::entry(edge_stamp, id);
                         ids[e] = id;
                     }
                 }
@@ -1044,8 +1040,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         continue;
                     }
                     if !REFINE {
+                        // (Their levels, all 0, are written once at the end.)
                         out.tris.push(tid);
-                        out.levels.push(0);
                         continue;
                     }
                     kept.push(tid);
@@ -1406,6 +1402,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         }
         sh.layers_done.fetch_add(1, Ordering::Relaxed);
         out.layers += 1;
+    }
+    if !REFINE && !count_only {
+        // Plain Marching Cubes: every triangle is at level 0.
+        out.levels.resize(out.tris.len(), 0);
     }
     // The last rows' triangles count towards the cap too.
     if !out.redo_with_map {

@@ -12,6 +12,7 @@
 use std::sync::Mutex;
 
 use crate::recycle::SCRATCH;
+use crate::tables::cube::{CORNERS, EDGES, EDGE_AXIS};
 
 /// An empty cache entry (its stamp, `u32::MAX`, is never handed out).
 pub(crate) const EMPTY: u64 = u64::MAX;
@@ -37,12 +38,13 @@ pub(crate) struct LayerScratch {
     pub insides: [Vec<u8>; 2],
     /// Whether each sample row of those layers is all finite.
     pub finite: [Vec<bool>; 2],
-    /// Ids on the x edges of the two sample layers (by z parity).
-    pub edge_x: [Vec<u64>; 2],
-    /// Ids on the y edges of the two sample layers (by z parity).
-    pub edge_y: [Vec<u64>; 2],
-    /// Ids on the z edges of the current cell layer.
-    pub edge_z: Vec<u64>,
+    /// Ids on grid edges, five regions of one sample layer's length
+    /// (`(nx + 1) * (ny + 1)`, rows of `nx + 1`, an edge at its lower
+    /// sample): the x edges of the two sample layers (by z parity), their
+    /// y edges, then the z edges of the current cell layer. One buffer, so
+    /// that a cell's edge finds its slot by a fixed offset from the cell
+    /// ([`cell_edge_slots`]) rather than by a branch on its axis.
+    pub edges: Vec<u64>,
     /// Case indices of one row of cells.
     pub cases: Vec<u8>,
     /// The first stamp not handed out yet.
@@ -56,8 +58,31 @@ pub(crate) struct LayerScratch {
 /// indices are a few bytes a row).
 fn scratch_bytes(nx: usize, ny: usize) -> usize {
     let layer = (ny + 1) * (nx + 1);
-    let (x_edges, y_edges, z_edges) = (nx * (ny + 1), (nx + 1) * ny, layer);
-    2 * layer + 8 * (2 * x_edges + 2 * y_edges + z_edges)
+    2 * layer + 8 * 5 * layer
+}
+
+/// For a cell layer of z parity `p`, each cell edge's slot in
+/// [`LayerScratch::edges`] less the cell's index `j * nxs + i`
+/// (`[p][e]`), and the layer above the cell layer's own (0 or 1) that
+/// stamps it (`.1[e]`, the z offset of its lower corner), for rows of
+/// `nxs` samples and layers of `len` samples.
+pub(crate) fn cell_edge_slots(nxs: usize, len: usize) -> ([[usize; 12]; 2], [u32; 12]) {
+    let mut at = [[0; 12]; 2];
+    let mut dz = [0; 12];
+    for e in 0..12 {
+        let ca = CORNERS[EDGES[e][0] as usize].map(|c| c as usize);
+        dz[e] = ca[2] as u32;
+        for (p, slots) in at.iter_mut().enumerate() {
+            let parity = (p + ca[2]) & 1;
+            let region = match EDGE_AXIS[e] {
+                0 => parity,
+                1 => 2 + parity,
+                _ => 4,
+            };
+            slots[e] = region * len + ca[1] * nxs + ca[0];
+        }
+    }
+    (at, dz)
 }
 
 impl crate::recycle::Held for LayerScratch {
@@ -72,16 +97,12 @@ impl LayerScratch {
     /// Buffers for layers of `nx` x `ny` cells, or the bytes that could
     /// not be allocated.
     fn new(nx: usize, ny: usize) -> Result<Self, usize> {
-        let nxs = nx + 1;
-        let layer = (ny + 1) * nxs;
-        let (x_edges, y_edges, z_edges) = (nx * (ny + 1), nxs * ny, nxs * (ny + 1));
+        let layer = (ny + 1) * (nx + 1);
         let s = (|| {
             Some(LayerScratch {
                 insides: [filled(layer, 0)?, filled(layer, 0)?],
                 finite: [filled(ny + 1, true)?, filled(ny + 1, true)?],
-                edge_x: [filled(x_edges, EMPTY)?, filled(x_edges, EMPTY)?],
-                edge_y: [filled(y_edges, EMPTY)?, filled(y_edges, EMPTY)?],
-                edge_z: filled(z_edges, EMPTY)?,
+                edges: filled(5 * layer, EMPTY)?,
                 cases: filled(nx, 0)?,
                 next_stamp: 0,
                 dims: (nx, ny),
@@ -95,14 +116,7 @@ impl LayerScratch {
     pub fn stamps(&mut self, n: usize) -> u32 {
         debug_assert!((n as u64) < u32::MAX as u64);
         if self.next_stamp as u64 + n as u64 >= u32::MAX as u64 {
-            for v in self
-                .edge_x
-                .iter_mut()
-                .chain(self.edge_y.iter_mut())
-                .chain(std::iter::once(&mut self.edge_z))
-            {
-                v.fill(EMPTY);
-            }
+            self.edges.fill(EMPTY);
             self.next_stamp = 0;
         }
         let first = self.next_stamp;
@@ -185,15 +199,47 @@ mod tests {
         // (The set may come from an earlier extraction, its stamps gone on.)
         let first = s.stamps(5);
         assert_eq!(s.stamps(4), first + 5);
-        s.edge_x[0][1] = entry(6, 3);
+        s.edges[1] = entry(6, 3);
         pool.give(s);
         // The pool hands the same buffers back, entries and stamps kept.
         let mut s = pool.take().unwrap();
-        assert_eq!(lookup(s.edge_x[0][1], 6), Some(3));
+        assert_eq!(lookup(s.edges[1], 6), Some(3));
         s.next_stamp = u32::MAX - 3;
         // Not enough stamps left: everything is cleared and they restart.
         assert_eq!(s.stamps(3), 0);
-        assert!(s.edge_x[0].iter().all(|&e| e == EMPTY));
+        assert!(s.edges.iter().all(|&e| e == EMPTY));
         assert_eq!(s.stamps(1), 3);
+    }
+
+    #[test]
+    fn each_grid_edge_has_one_slot_shared_by_its_cells() {
+        // Every (cell, edge) of a 3 x 2 x 2 block of cells, keyed by the
+        // grid edge it is: slot and stamp layer (z of the sample layer for
+        // x and y edges, of the cell layer for z edges) agree exactly when
+        // the grid edge is the same one.
+        let (nx, ny) = (3usize, 2usize);
+        let (nxs, len) = (nx + 1, (nx + 1) * (ny + 1));
+        let (at, dz) = cell_edge_slots(nxs, len);
+        let mut seen = std::collections::HashMap::new();
+        for k in 0..2usize {
+            for j in 0..ny {
+                for i in 0..nx {
+                    for e in 0..12 {
+                        let ca = CORNERS[EDGES[e][0] as usize].map(|c| c as usize);
+                        let grid_edge = (i + ca[0], j + ca[1], k + ca[2], EDGE_AXIS[e]);
+                        let slot = j * nxs + i + at[k & 1][e];
+                        assert!(slot < 5 * len);
+                        let key = (slot, k + dz[e] as usize);
+                        if let Some(g) = seen.insert(key, grid_edge) {
+                            assert_eq!(g, grid_edge, "cell ({i}, {j}, {k}) edge {e}");
+                        }
+                    }
+                }
+            }
+        }
+        // Distinct grid edges of the block: x 3*3*3, y 4*2*3, z 4*3*2.
+        let edges: std::collections::HashSet<_> = seen.values().collect();
+        assert_eq!(edges.len(), 27 + 24 + 24);
+        assert_eq!(seen.len(), edges.len());
     }
 }
