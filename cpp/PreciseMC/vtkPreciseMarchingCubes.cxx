@@ -965,7 +965,26 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     const MeshSelection& selection = selections[static_cast<size_t>(c)];
     const vtkIdType* pointMap = selection.All ? nullptr : selection.PointMap.data();
 
+    // Float points of an axis-aligned image, nothing else per point: the
+    // common case, in a loop without per-point branches (the general one
+    // below cost about as much as copying every array twice).
+    const bool plainPoints =
+      !pointMap && axisAligned && floatPts && !computeNormals && indexPoints.empty();
     forRange(np, [&](vtkIdType first, vtkIdType last) {
+      if (plainPoints)
+      {
+        const double o0 = volume.origin[0], o1 = volume.origin[1], o2 = volume.origin[2];
+        const double s0 = volume.spacing[0], s1 = volume.spacing[1], s2 = volume.spacing[2];
+        const double* p = ijk + 3 * first;
+        float* out = floatPts + 3 * (ptOffset + first);
+        for (vtkIdType i = first; i < last; ++i, p += 3, out += 3)
+        {
+          out[0] = static_cast<float>(o0 + s0 * p[0]);
+          out[1] = static_cast<float>(o1 + s1 * p[1]);
+          out[2] = static_cast<float>(o2 + s2 * p[2]);
+        }
+        return;
+      }
       for (vtkIdType i = first; i < last; ++i)
       {
         if (pointMap && pointMap[i] < 0)
@@ -1042,7 +1061,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     }
 
     unsigned char* levelOut = levels ? levels->GetPointer(0) : nullptr;
+    // With the library's triangles adopted whole, only the offsets are
+    // left to write.
+    const bool offsetsOnly = adopted && selection.All && !levelOut;
     forRange(outTriangles, [&](vtkIdType first, vtkIdType last) {
+      if (offsetsOnly)
+      {
+        for (vtkIdType k = first; k < last; ++k)
+        {
+          offs[triOffset + k] = 3 * (triOffset + k);
+        }
+        return;
+      }
       for (vtkIdType k = first; k < last; ++k)
       {
         const vtkIdType t = selection.All ? k : selection.Triangles[static_cast<size_t>(k)];
