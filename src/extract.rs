@@ -324,10 +324,14 @@ pub const MAX_THREADS: usize = 4096;
 /// lost 0.05-0.2 ms to a helper thread in two or more.)
 const MIN_CELLS_PER_SLAB: u64 = 1 << 15;
 
-/// [`MIN_CELLS_PER_SLAB`] on a host's executor: no thread starts, so
-/// smaller slabs pay (Marschner-Lobb 41^3 on TBB with 2 threads, through
-/// VTK: 1.56 ms in one slab, 1.13 ms in two).
-const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 14;
+/// [`MIN_CELLS_PER_SLAB`] on a host's executor, where no thread starts.
+/// It was half that while a cell cost more (Marschner-Lobb 41^3 on TBB
+/// with 2 threads, through VTK: 1.56 ms in one slab, 1.13 ms in two); with
+/// the cheaper cell loop of the twenty-fourth session, two slabs took
+/// 0.86 ms against 0.58 in one, and the tube and the atoms 1.3-1.5 times
+/// one slab's time (assembling slabs welds their shared planes through a
+/// hash map).
+const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 15;
 
 /// With refinement off, the fewest cell layers a slab gets while there
 /// are more slabs than workers.

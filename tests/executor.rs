@@ -38,7 +38,7 @@ fn settings() -> Vec<Options> {
 fn an_executor_that_skips_tasks_fails_the_extraction_cleanly() {
     // Large enough for several slabs without refinement (small volumes run
     // on the calling thread, without the executor).
-    let dims = [40, 38, 42];
+    let dims = [56, 52, 60];
     let values = blobs(dims, 5, 7);
     let vol = Volume::new(&values, dims_u64(dims));
     let skips: [fn(usize) -> Vec<usize>; 3] = [
