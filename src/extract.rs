@@ -114,6 +114,7 @@ pub fn extract_with_progress(
     let how = How {
         min_slab_cells: MIN_CELLS_PER_SLAB,
         min_slab_layers: MIN_LAYERS_PER_SLAB,
+        min_helper_cells: MIN_CELLS_FOR_HELPERS,
         world_points: true,
         executor: None,
     };
@@ -141,6 +142,7 @@ pub fn extract_with_executor(
     let how = How {
         min_slab_cells: MIN_CELLS_PER_LENT_SLAB,
         min_slab_layers: MIN_LAYERS_PER_SLAB,
+        min_helper_cells: 0,
         world_points: true,
         executor: Some(executor),
     };
@@ -166,6 +168,11 @@ pub(crate) fn extract_index_points(
             MIN_CELLS_PER_SLAB
         },
         min_slab_layers: MIN_LAYERS_PER_SLAB,
+        min_helper_cells: if executor.is_some() {
+            0
+        } else {
+            MIN_CELLS_FOR_HELPERS
+        },
         world_points: false,
         executor,
     };
@@ -181,6 +188,9 @@ struct How<'e> {
     /// With refinement off, the fewest layers a slab gets while there are
     /// more slabs than workers (tests use 1).
     min_slab_layers: usize,
+    /// With refinement off and no executor, the fewest cells for which
+    /// helper threads start (tests use 0).
+    min_helper_cells: u64,
     /// Whether to fill [`Mesh::points`] (world coordinates).
     world_points: bool,
     /// The host's executor, if it lends one (else the extraction's own
@@ -337,6 +347,17 @@ const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 15;
 /// are more slabs than workers.
 const MIN_LAYERS_PER_SLAB: usize = 3;
 
+/// With refinement off on the library's own threads, the fewest cells for
+/// which helper threads start: below, the calling thread contours the
+/// volume alone in one slab. Starting and joining a helper costs about
+/// as much as contouring a few hundred thousand cells on these shared
+/// virtual machines (twenty-fourth session, 2 threads asked, builds with
+/// and without this bound alternated, medians of 400 calls: the 64^3
+/// wavy sphere 0.55-1.04 ms alone against 1.11-1.92 with a helper, the
+/// 128x96x24 EPI scan 1.61-1.71 against 1.80-2.73; at 128^3, 2 million
+/// cells, a helper still pays: 4.1-4.5 ms against 4.5-4.8 alone).
+const MIN_CELLS_FOR_HELPERS: u64 = 1 << 19;
+
 /// With refinement off and one thread, the most cells an extraction runs
 /// on the calling thread without a pool (a few milliseconds of work: no
 /// progress is reported in between).
@@ -405,6 +426,12 @@ fn run<T: Scalar>(
     // No more threads than slabs: a small volume runs on one.
     let nz = grid.dims[2] - 1;
     let refine = options.refines();
+    let threads = if how.executor.is_none() && !refine && volume.cell_count() < how.min_helper_cells
+    {
+        1
+    } else {
+        threads
+    };
     let nslabs = slab_count(
         nz,
         volume.cell_count(),
@@ -1765,6 +1792,7 @@ mod tests {
         let how = How {
             min_slab_cells,
             min_slab_layers: 1,
+            min_helper_cells: 0,
             world_points: true,
             executor,
         };
