@@ -89,8 +89,11 @@ pub struct Options {
     /// Cap on output triangles; 0 = no cap of the caller's (the internal
     /// safety cap [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
     pub max_triangles: u64,
-    /// Worker threads; 0 = all cores. Default 0. Values above
+    /// The most worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
+    /// Plain Marching Cubes (no refinement) of a volume under 524 288
+    /// cells runs on the calling thread alone: starting a helper thread
+    /// costs more than it saves there.
     pub threads: usize,
     /// The filter refinement follows. Default [`Reconstruction::Trilinear`].
     pub reconstruction: Reconstruction,
