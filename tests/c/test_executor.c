@@ -105,8 +105,10 @@ int main(void) {
                                       PMC_SCALAR_TYPE_I16};
     for (int t = 0; t < 3; t++) {
         /* Samples: the distance to the centre (times 4 or 100 for the
-         * integer types, rounded); spheres of radius 25.3, 12.6 and 12. */
-        pmc_volume v = make_sphere(t == 0 ? 70 : 33, types[t], t == 0 ? 1.0 : (t == 1 ? 4.0 : 100.0));
+         * integer types, rounded); spheres of radius 25.3, 12.6 and 12.
+         * Each grid has over 65 536 cells, so plain Marching Cubes cuts
+         * it into slabs on a pool of two or more. */
+        pmc_volume v = make_sphere(t == 0 ? 70 : 42, types[t], t == 0 ? 1.0 : (t == 1 ? 4.0 : 100.0));
         double iso = t == 0 ? 25.3 : (t == 1 ? 50.5 : 1200.5);
         for (int setting = 0; setting < 3; setting++) {
             double eps = setting == 2 ? 0.001 : 0.0;
