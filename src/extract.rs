@@ -26,12 +26,12 @@ use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::helpers::with_helpers;
 use crate::layers::{self, LayerScratch, ScratchPool};
-use crate::mc::{cell_triangles_of_case, classic, Patch};
+use crate::mc::{cell_triangles_borrowed, classic, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::near_bound;
 use crate::normals::compute_normals;
-use crate::options::{Options, Reconstruction, Topology};
+use crate::options::{Options, Reconstruction};
 use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
 use crate::recycle;
@@ -40,9 +40,7 @@ use crate::refine::{
     Counters, EdgeCache, Refinable, Refiner, Tri,
 };
 use crate::subcells;
-use crate::tables::cube::{
-    on_one_face, CORNERS, CROSSED_EDGES, EDGES, EDGE_AXIS, NEEDS_TOPOLOGY_TEST,
-};
+use crate::tables::cube::{on_one_face, CORNERS, CROSSED_EDGES, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar, Volume};
 use crate::{Error, HARD_TRIANGLE_CAP, MAX_LEVEL_LIMIT};
 
@@ -142,7 +140,7 @@ pub fn extract_with_executor(
     let how = How {
         min_slab_cells: MIN_CELLS_PER_LENT_SLAB,
         min_slab_layers: MIN_LAYERS_PER_SLAB,
-        min_helper_cells: 0,
+        min_helper_cells: MIN_CELLS_FOR_HELPERS,
         world_points: true,
         executor: Some(executor),
     };
@@ -168,11 +166,7 @@ pub(crate) fn extract_index_points(
             MIN_CELLS_PER_SLAB
         },
         min_slab_layers: MIN_LAYERS_PER_SLAB,
-        min_helper_cells: if executor.is_some() {
-            0
-        } else {
-            MIN_CELLS_FOR_HELPERS
-        },
+        min_helper_cells: MIN_CELLS_FOR_HELPERS,
         world_points: false,
         executor,
     };
@@ -188,8 +182,8 @@ struct How<'e> {
     /// With refinement off, the fewest layers a slab gets while there are
     /// more slabs than workers (tests use 1).
     min_slab_layers: usize,
-    /// With refinement off and no executor, the fewest cells for which
-    /// helper threads start (tests use 0).
+    /// With refinement off, the fewest cells for which helper threads
+    /// start (not used on an executor, which starts none; tests use 0).
     min_helper_cells: u64,
     /// Whether to fill [`Mesh::points`] (world coordinates).
     world_points: bool,
@@ -933,17 +927,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 for q in 0..8 {
                     f[q] = c[q] - sh.iso;
                 }
-                patch.clear();
-                // The case table's triangles, borrowed, unless the cell's
-                // trilinear topology must be decided.
-                let tris: &[[u8; 3]] =
-                    if opts.topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize] {
-                        cell_triangles_of_case(case, &f, opts.topology, &mut patch);
-                        out.ambiguous += 1;
-                        &patch.tris
-                    } else {
-                        classic::case_triangles(case)
-                    };
+                let (tris, extra, ambiguous) =
+                    cell_triangles_borrowed(case, &f, opts.topology, &mut patch);
+                if ambiguous {
+                    out.ambiguous += 1;
+                }
                 // With a filter that is not linear on grid edges, the
                 // refinement starts from crossings on its own isosurface.
                 let edge_filter = if REFINE && !F::LINEAR_ON_EDGES {
@@ -1034,7 +1022,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         ids[e] = id;
                     }
                 }
-                for (x, lp) in patch.extra.iter().enumerate() {
+                for (x, lp) in extra.iter().enumerate() {
                     // An interior point of an ambiguous cell.
                     let e = 12 + x;
                     let lp = DVec3::from_array(*lp);
@@ -1089,10 +1077,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         // Every point lies strictly inside its grid edge
                         // or its cell: a triangle is flat exactly when its
                         // three points lie on edges of one face.
-                        let flat = if patch.tris.is_empty() {
-                            classic::HAS_FACE_TRIANGLE[case as usize]
+                        let flat = if ambiguous {
+                            tris.iter().any(|&t| on_one_face(t))
                         } else {
-                            patch.tris.iter().any(|&t| on_one_face(t))
+                            classic::HAS_FACE_TRIANGLE[case as usize]
                         };
                         if flat {
                             note_flat(&mut out, mc_start);
@@ -1152,7 +1140,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     && refinable.interior
                     && !count_only
                     && sh.max_level > 0
-                    && patch.extra.is_empty()
+                    && extra.is_empty()
                 {
                     let far = cell_f.abs().max_element();
                     near_bound::all_near(&c, sh.iso, far, &kept, &pos_of, opts.epsilon, opts.rule)

@@ -63,11 +63,39 @@ pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &
     if case == 0 || case == 255 {
         return false;
     }
-    if topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize] {
+    if topology_decides(case, topology) {
         trilinear::triangles(f, out.pinch_fans, &mut out.tris, &mut out.extra);
         true
     } else {
         classic::triangles(case, &mut out.tris);
         false
     }
+}
+
+/// The triangles of one cell (`case == case_index(f)`), its interior
+/// points, and whether the trilinear topology test ran: the triangles are
+/// borrowed from the fixed table, without a copy, unless the test decides
+/// them into `out` (emptied first).
+#[inline]
+pub fn cell_triangles_borrowed<'a>(
+    case: u8,
+    f: &[f64; 8],
+    topology: Topology,
+    out: &'a mut Patch,
+) -> (&'a [[u8; 3]], &'a [[f64; 3]], bool) {
+    debug_assert_eq!(case, case_index(f));
+    out.clear();
+    if topology_decides(case, topology) {
+        trilinear::triangles(f, out.pinch_fans, &mut out.tris, &mut out.extra);
+        (&out.tris, &out.extra, true)
+    } else {
+        (classic::case_triangles(case), &out.extra, false)
+    }
+}
+
+/// Whether the cell's triangles come from the trilinear topology test
+/// rather than the fixed table.
+#[inline(always)]
+fn topology_decides(case: u8, topology: Topology) -> bool {
+    topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize]
 }
