@@ -274,13 +274,6 @@ fn same_corners(a: [DVec3; 3], b: [DVec3; 3]) -> bool {
     a.iter().all(|p| b.contains(p))
 }
 
-#[derive(Clone, Copy)]
-enum Slot {
-    V(usize),
-    M(usize),
-    C,
-}
-
 /// What testing one sample point decides: a pure function of the point,
 /// its fixed axes, the cell, the isovalue, epsilon and whether the
 /// nearest-point fallback is on (see [`Refiner::interior_fallback`]).
@@ -832,8 +825,26 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 continue;
             }
             self.counters.splits += nsplit as u64 + centre.is_some() as u64;
-            // Ids and positions of the new points.
-            let mut mid_id = [u32::MAX; 3];
+            // Ids and positions of the triangle's points by slot: its
+            // corners, its edges' split points, its centre.
+            let mut ids = [
+                t.v[0],
+                t.v[1],
+                t.v[2],
+                u32::MAX,
+                u32::MAX,
+                u32::MAX,
+                u32::MAX,
+            ];
+            let mut pos = [
+                t.p[0],
+                t.p[1],
+                t.p[2],
+                mid_p[0],
+                mid_p[1],
+                mid_p[2],
+                DVec3::ZERO,
+            ];
             for e in 0..3 {
                 if splits(e) {
                     // A split edge was tested, so it has an entry.
@@ -841,85 +852,60 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                         if entry.id == u32::MAX {
                             entry.id = vertex(mid_p[e]);
                         }
-                        mid_id[e] = entry.id;
+                        ids[M0 + e] = entry.id;
                     }
                 }
             }
-            let centre_data = centre.map(|c| (vertex(c), c));
-            let slot = |s: Slot| -> (u32, DVec3) {
-                match s {
-                    Slot::V(i) => (t.v[i], t.p[i]),
-                    Slot::M(e) => (mid_id[e], mid_p[e]),
-                    Slot::C => centre_data.unwrap(),
-                }
-            };
-            // Fixed mask of a child edge: the parent edge's when both ends
-            // lie on it, none for new interior edges.
-            let on_edge = |s: Slot, e: usize| -> bool {
-                match s {
-                    Slot::V(i) => i == e || i == (e + 1) % 3,
-                    Slot::M(m) => m == e,
-                    Slot::C => false,
-                }
-            };
-            let mask = |a: Slot, b: Slot| -> u8 {
-                for e in 0..3 {
-                    if on_edge(a, e) && on_edge(b, e) {
-                        return t.fixed[e];
-                    }
-                }
-                0
-            };
-            // A child edge that is a whole, unsplit parent edge was tested
-            // (or known) near.
-            let whole = |a: Slot, b: Slot| -> bool { matches!((a, b), (Slot::V(_), Slot::V(_))) };
-            let mut children: [[Slot; 3]; 6] = [[Slot::C; 3]; 6];
+            if let Some(c) = centre {
+                ids[C] = vertex(c);
+                pos[C] = c;
+            }
+            let mut children = [[C as u8; 3]; 6];
             let mut n = 0;
             if centre.is_some() {
-                let mut ring = [Slot::C; 6];
+                let mut ring = [C as u8; 6];
                 let mut len = 0;
                 for e in 0..3 {
-                    ring[len] = Slot::V(e);
+                    ring[len] = e as u8;
                     len += 1;
                     if splits(e) {
-                        ring[len] = Slot::M(e);
+                        ring[len] = (M0 + e) as u8;
                         len += 1;
                     }
                 }
                 for k in 0..len {
-                    children[n] = [ring[k], ring[(k + 1) % len], Slot::C];
+                    children[n] = [ring[k], ring[(k + 1) % len], C as u8];
                     n += 1;
                 }
             } else {
+                let (v, m) = (|i: usize| (i % 3) as u8, |e: usize| (M0 + e % 3) as u8);
                 match nsplit {
                     1 => {
                         let e = (0..3).find(|&e| splits(e)).unwrap();
-                        let (a, b, c) = (e, (e + 1) % 3, (e + 2) % 3);
-                        children[0] = [Slot::V(a), Slot::M(e), Slot::V(c)];
-                        children[1] = [Slot::M(e), Slot::V(b), Slot::V(c)];
+                        children[0] = [v(e), m(e), v(e + 2)];
+                        children[1] = [m(e), v(e + 1), v(e + 2)];
                         n = 2;
                     }
                     2 => {
                         let u = (0..3).find(|&e| !splits(e)).unwrap();
                         let (e1, e2) = ((u + 1) % 3, (u + 2) % 3);
-                        let (vu, vu1, vu2) = (u, (u + 1) % 3, (u + 2) % 3);
-                        children[0] = [Slot::M(e1), Slot::V(vu2), Slot::M(e2)];
-                        let d1 = (t.p[vu] - mid_p[e1]).length_squared();
-                        let d2 = (t.p[vu1] - mid_p[e2]).length_squared();
+                        children[0] = [m(e1), v(u + 2), m(e2)];
+                        let d1 = (t.p[u] - mid_p[e1]).length_squared();
+                        let d2 = (t.p[(u + 1) % 3] - mid_p[e2]).length_squared();
                         if d1 <= d2 {
-                            children[1] = [Slot::V(vu), Slot::V(vu1), Slot::M(e1)];
-                            children[2] = [Slot::V(vu), Slot::M(e1), Slot::M(e2)];
+                            children[1] = [v(u), v(u + 1), m(e1)];
+                            children[2] = [v(u), m(e1), m(e2)];
                         } else {
-                            children[1] = [Slot::V(vu), Slot::V(vu1), Slot::M(e2)];
-                            children[2] = [Slot::V(vu1), Slot::M(e1), Slot::M(e2)];
+                            children[1] = [v(u), v(u + 1), m(e2)];
+                            children[2] = [v(u + 1), m(e1), m(e2)];
                         }
                         n = 3;
                     }
                     _ => {
-                        children[0] = [Slot::V(0), Slot::M(0), Slot::M(2)];
-                        children[1] = [Slot::M(0), Slot::V(1), Slot::M(1)];
-                        children[2] = [Slot::M(2), Slot::M(1), Slot::V(2)];
-                        children[3] = [Slot::M(0), Slot::M(1), Slot::M(2)];
+                        children[0] = [v(0), m(0), m(2)];
+                        children[1] = [m(0), v(1), m(1)];
+                        children[2] = [m(2), m(1), v(2)];
+                        children[3] = [m(0), m(1), m(2)];
                         n = 4;
                     }
                 }
@@ -931,7 +917,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             // edges around them are then shared by the neighbours directly,
             // so the mesh stays closed and manifold. Positions, not ids, are
             // compared so that counting (distinct ids) agrees with output.
-            let pos = |s: Slot| slot(s).1;
+            let corners = |ch: [u8; 3]| ch.map(|s| pos[s as usize]);
             let mut keep = [true; 6];
             // When the new points differ from each other and from the
             // corners, every child has three distinct corners and no two
@@ -944,49 +930,86 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                     nfresh += 1;
                 }
             }
-            if let Some((_, c)) = centre_data {
+            if let Some(c) = centre {
                 fresh[nfresh] = c;
                 nfresh += 1;
             }
             let distinct = (0..nfresh)
                 .all(|a| !t.p.contains(&fresh[a]) && (a + 1..nfresh).all(|b| fresh[a] != fresh[b]));
-            for x in 0..if distinct { 0 } else { n } {
-                let [a, b, c] = children[x].map(pos);
-                if a == b || b == c || a == c {
-                    keep[x] = false;
-                }
-            }
-            for x in 0..if distinct { 0 } else { n } {
-                for y in x + 1..n {
-                    if keep[x]
-                        && keep[y]
-                        && same_corners(children[x].map(pos), children[y].map(pos))
-                    {
+            if !distinct {
+                for x in 0..n {
+                    let [a, b, c] = corners(children[x]);
+                    if a == b || b == c || a == c {
                         keep[x] = false;
-                        keep[y] = false;
+                    }
+                }
+                for x in 0..n {
+                    for y in x + 1..n {
+                        if keep[x]
+                            && keep[y]
+                            && same_corners(corners(children[x]), corners(children[y]))
+                        {
+                            keep[x] = false;
+                            keep[y] = false;
+                        }
                     }
                 }
             }
+            // A child edge along a parent edge keeps its fixed axes; one
+            // joining two of the parent's corners is that whole, unsplit
+            // edge, tested (or known) near.
+            let edge_of = |a: u8, b: u8| -> (u8, u8) {
+                match PARENT_EDGE[a as usize][b as usize] {
+                    NO_EDGE => (0, 0),
+                    e => (t.fixed[e as usize], (a < M0 as u8 && b < M0 as u8) as u8),
+                }
+            };
             // Push in reverse so children come out in order.
-            for (x, ch) in children[..n].iter().enumerate().rev() {
+            for x in (0..n).rev() {
                 if !keep[x] {
                     continue;
                 }
-                let (a, b, c) = (slot(ch[0]), slot(ch[1]), slot(ch[2]));
+                let ch = children[x];
+                let (f0, n0) = edge_of(ch[0], ch[1]);
+                let (f1, n1) = edge_of(ch[1], ch[2]);
+                let (f2, n2) = edge_of(ch[2], ch[0]);
                 self.stack.push(Tri {
-                    v: [a.0, b.0, c.0],
-                    p: [a.1, b.1, c.1],
-                    fixed: [mask(ch[0], ch[1]), mask(ch[1], ch[2]), mask(ch[2], ch[0])],
+                    v: ch.map(|s| ids[s as usize]),
+                    p: corners(ch),
+                    fixed: [f0, f1, f2],
                     level: t.level + 1,
-                    near: whole(ch[0], ch[1]) as u8
-                        | (whole(ch[1], ch[2]) as u8) << 1
-                        | (whole(ch[2], ch[0]) as u8) << 2,
+                    near: n0 | n1 << 1 | n2 << 2,
                 });
             }
         }
         true
     }
 }
+
+/// Slots of the points a triangle splits into: its corners `0..3`, the
+/// split points of its edges `M0 + e` (edge `e` joins corners `e` and
+/// `e + 1`), its centre `C`.
+const M0: usize = 3;
+const C: usize = 6;
+const NO_EDGE: u8 = 3;
+
+/// The parent edge two slots both lie on ([`NO_EDGE`] for none): corners
+/// `i` and `i + 1` and the split point between them lie on edge `i`.
+const PARENT_EDGE: [[u8; 7]; 7] = {
+    let mut t = [[NO_EDGE; 7]; 7];
+    let mut e = 0;
+    while e < 3 {
+        let (a, b, m) = (e, (e + 1) % 3, M0 + e);
+        t[a][b] = e as u8;
+        t[b][a] = e as u8;
+        t[a][m] = e as u8;
+        t[m][a] = e as u8;
+        t[b][m] = e as u8;
+        t[m][b] = e as u8;
+        e += 1;
+    }
+    t
+};
 
 #[cfg(test)]
 mod tests {
