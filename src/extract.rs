@@ -1129,8 +1129,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     produced_before,
                     remaining,
                 };
-                // Interior edges split only in cells free of ties.
-                let refinable = Refinable::of_cell(&f);
+                // Interior edges split only in cells free of ties (a sample
+                // at the isovalue is none for the trilinear filter: see
+                // `Refinable`).
+                let refinable = Refinable::of_cell(&f, F::MULTILINEAR && F::LINEAR_ON_EDGES);
                 // Where the bounds on the interpolant show that every test
                 // at level 0 would find its sample near, the cell keeps its
                 // Marching Cubes triangles: emit them as refinement would,
@@ -1138,6 +1140,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 let settled = if F::MULTILINEAR
                     && F::LINEAR_ON_EDGES
                     && refinable.interior
+                    && refinable.shift[6] == 0.0
                     && !count_only
                     && sh.max_level > 0
                     && extra.is_empty()
@@ -1177,7 +1180,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 if refinable.interior {
                     out.counters.recut_polygons += choose_diagonals::<F>(
                         &fc,
-                        sh.iso,
+                        sh.iso - refinable.shift[6],
                         opts.epsilon,
                         &mut kept,
                         &mut pos_of,

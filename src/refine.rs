@@ -56,49 +56,124 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     pub stall_len2: f64,
 }
 
-/// Where a cell may be refined. A sample exactly at the isovalue (or a face
-/// saddle exactly at it) makes `S_K` touch itself or contain whole grid
-/// segments there; split points projected near such a place from two sides
-/// land on the same spot and weld into non-manifold or degenerate
-/// triangles. So refinement stays away from them: an edge lying in a cell
-/// face splits only when that face is free of ties (decided from the
+/// Where a cell may be refined, and against which isovalue. Near a sample
+/// within rounding of the isovalue (but not on it), or a face saddle at
+/// the isovalue, `S_K` touches itself or contains whole grid segments
+/// there; split points projected near such a place from two sides land
+/// on the same spot and weld into non-manifold or degenerate triangles.
+/// So refinement stays away from them: an edge lying in a cell face
+/// splits only when that face is free of such ties (decided from the
 /// face's four samples alone, so both cells sharing it agree: no crack),
-/// and interior edges and centres only when all eight corners and all six
-/// faces are. Such cells keep (part of) their Marching Cubes triangles.
+/// and interior edges and centres only when all six faces are. Such cells
+/// keep (part of) their Marching Cubes triangles.
+///
+/// A sample exactly equal to the isovalue is not such a tie: Marching
+/// Cubes counts it inside, and refinement (with the trilinear filter)
+/// follows the isosurface of an isovalue lower by [`Refinable::shift`], a
+/// relative 2^-32 of the face's (cell's) largest corner value, on which
+/// that sample is inside too and `S_K` no longer passes through it.
+/// (Integer data contoured at an integer isovalue has many such samples:
+/// 8-bit data at 127 or 128 kept its Marching Cubes error, 0.11 cells,
+/// everywhere near one.) Some such corners stay frozen:
+/// - inside a cell, a corner whose neighbours along the cell's edges are
+///   all below or at the isovalue (a peak or a ridge at it): the shifted
+///   surface there is a cap or a thin tube the size of the shift, which
+///   split points cannot follow (Marching Cubes collapses its triangles);
+/// - on a face, three corners at the isovalue: the Marching Cubes outline
+///   cuts the face along the diagonal between the outer two, while `S_K`
+///   runs along its edges and the shifted surface hugs the fourth corner;
+/// - an ambiguous face with a corner at the isovalue: its saddle decides
+///   Marching Cubes' topology within rounding of the shift.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Refinable {
     /// Bit `2 * axis + side` set: the face `axis = side` is free of ties.
     pub faces: u8,
     /// The whole cell is free of ties.
     pub interior: bool,
+    /// How much lower than the isovalue refinement's isosurface lies on
+    /// face `2 * axis + side` (`0..6`) and inside the cell (`6`): zero
+    /// unless a corner of that face (cell) equals the isovalue.
+    pub shift: [f64; 7],
 }
 
+/// The shift of a face (cell) with a corner at the isovalue, relative to
+/// its largest corner value: far above rounding (the nearest corner
+/// value that is not a tie is at least [`TIE`] of it), far below any
+/// epsilon (the surface moves about this fraction of a cell).
+const TIE_SHIFT: f64 = 1.0 / (1u64 << 32) as f64;
+
+/// Corner values (less the isovalue) within this fraction of the face's
+/// largest one, but not zero, are ties: the crossing lies within rounding
+/// of the grid point in global index coordinates.
+const TIE: f64 = 1e-10;
+
 impl Refinable {
-    /// From the corner values minus the isovalue (VTK corner order).
-    pub fn of_cell(f: &[f64; 8]) -> Self {
+    /// From the corner values minus the isovalue (VTK corner order);
+    /// `shift_ties`: whether corners at the isovalue may be refined around
+    /// (the trilinear filter), else they are ties too.
+    pub fn of_cell(f: &[f64; 8], shift_ties: bool) -> Self {
         use crate::tables::cube::FACES;
         let mut faces = 0u8;
+        let mut shift = [0.0; 7];
         for (axis, side, c) in FACES {
             let g = c.map(|k| f[k as usize]);
-            // A sample at the isovalue, or an ambiguous face whose diagonal
-            // products agree (its saddle is at the isovalue), to within a
-            // relative 1e-10: closer than that, the crossing lies within
-            // rounding of the grid point (or the saddle's branches touch)
-            // in global index coordinates, and behaves as an exact tie.
-            const TIE: f64 = 1e-10;
             let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let zero = g.contains(&0.0);
+            let near = g.iter().any(|&v| v != 0.0 && v.abs() <= TIE * scale);
+            // No corner at the isovalue between two others (see above).
+            let crossed =
+                (0..4).all(|i| g[i] != 0.0 || g[(i + 1) % 4] != 0.0 || g[(i + 3) % 4] != 0.0);
+            let d = if zero && shift_ties && crossed {
+                TIE_SHIFT * scale
+            } else {
+                0.0
+            };
+            let g = g.map(|v| v + d);
             let s = g.map(|v| v > 0.0);
             let ambiguous = s[0] == s[2] && s[1] == s[3] && s[0] != s[1];
             let (d0, d1) = (g[0] * g[2], g[1] * g[3]);
-            let tie = g.iter().any(|v| v.abs() <= TIE * scale)
+            let tie = near
+                || (zero && (d == 0.0 || ambiguous))
                 || (ambiguous && (d0 - d1).abs() <= TIE * d0.abs().max(d1.abs()));
+            let bit = 2 * axis as usize + side as usize;
             if !tie {
-                faces |= 1 << (2 * axis + side);
+                faces |= 1 << bit;
+                shift[bit] = d;
+            }
+        }
+        let mut interior = faces == 0b11_1111;
+        if f.contains(&0.0) {
+            let mut up = [false; 8];
+            for [a, b] in crate::tables::cube::EDGES {
+                let (a, b) = (a as usize, b as usize);
+                up[a] |= f[b] > 0.0;
+                up[b] |= f[a] > 0.0;
+            }
+            interior &= shift_ties && (0..8).all(|k| f[k] != 0.0 || up[k]);
+            if interior {
+                shift[6] = TIE_SHIFT * f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             }
         }
         Refinable {
             faces,
-            interior: faces == 0b11_1111,
+            interior,
+            shift,
+        }
+    }
+
+    /// The isovalue refinement follows for an edge with fixed-axis mask
+    /// `fixed` through `mid` (local coordinates): the cell's inside it, a
+    /// face's on it. On a grid edge (two fixed axes) the data's own: only
+    /// a segment between two corners at the isovalue lies there, near.
+    #[inline]
+    pub fn iso(&self, iso: f64, fixed: u8, mid: DVec3) -> f64 {
+        match fixed {
+            0 => iso - self.shift[6],
+            1 | 2 | 4 => {
+                let k = fixed.trailing_zeros() as usize;
+                iso - self.shift[2 * k + (mid[k] == 1.0) as usize]
+            }
+            _ => iso,
         }
     }
 
@@ -645,7 +720,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     fn test(&mut self, p: DVec3, fixed: u8, reach: f64) -> Option<DVec3> {
         let s = sample::<F>(
             self.cell,
-            self.iso,
+            self.refinable.iso(self.iso, fixed, p),
             p,
             fixed,
             self.epsilon,
@@ -689,12 +764,12 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                 continue;
             }
             let m = (a + b) * 0.5;
-            if seems_far::<F>(self.cell, self.iso, m, t.fixed[e], self.epsilon) {
+            let iso = self.refinable.iso(self.iso, t.fixed[e], m);
+            if seems_far::<F>(self.cell, iso, m, t.fixed[e], self.epsilon) {
                 far = true;
                 let sag = crate::subcells::STALL_SAG * (b - a).length();
                 if long
-                    && (sag <= self.epsilon
-                        || seems_far::<F>(self.cell, self.iso, m, t.fixed[e], sag))
+                    && (sag <= self.epsilon || seems_far::<F>(self.cell, iso, m, t.fixed[e], sag))
                 {
                     return (true, true);
                 }
@@ -759,7 +834,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                         None => {
                             let s = sample_edge::<F>(
                                 self.cell,
-                                self.iso,
+                                self.refinable.iso(self.iso, t.fixed[e], midpoint[e]),
                                 t.p[e],
                                 t.p[(e + 1) % 3],
                                 t.fixed[e],
@@ -1020,6 +1095,66 @@ mod tests {
     use crate::nearest::tests::uniform;
 
     type Tri = Trilinear<'static, f64>;
+
+    /// Corner values (VTK order) of `a x + b y + c z + d`.
+    fn linear_cell(a: f64, b: f64, c: f64, d: f64) -> [f64; 8] {
+        crate::tables::cube::CORNERS.map(|[x, y, z]| a * x as f64 + b * y as f64 + c * z as f64 + d)
+    }
+
+    #[test]
+    fn samples_at_the_isovalue_shift_the_isovalue_where_the_surface_crosses_them() {
+        // Corner 2 = (1, 1, 0) at the isovalue, crossed: neighbours -2, -1, 4.
+        let f = linear_cell(1.0, 2.0, 4.0, -3.0);
+        assert_eq!(f[2], 0.0);
+        let r = Refinable::of_cell(&f, true);
+        assert!(r.interior && r.faces == 0b11_1111);
+        assert_eq!(r.shift[6], TIE_SHIFT * 4.0);
+        // Faces x = 1, y = 1, z = 0 hold corner 2; the others are untouched.
+        for (bit, scale) in [(1, 4.0), (3, 4.0), (4, 3.0)] {
+            assert_eq!(r.shift[bit], TIE_SHIFT * scale, "face {bit}");
+        }
+        for bit in [0, 2, 5] {
+            assert_eq!(r.shift[bit], 0.0, "face {bit}");
+        }
+        let mid = DVec3::new(1.0, 0.5, 0.5);
+        assert_eq!(r.iso(10.0, 1, mid), 10.0 - r.shift[1]);
+        assert_eq!(r.iso(10.0, 0, mid), 10.0 - r.shift[6]);
+        assert_eq!(r.iso(10.0, 0b011, mid), 10.0);
+        // Other filters: every face through the corner and the inside freeze.
+        let r = Refinable::of_cell(&f, false);
+        assert!(!r.interior);
+        assert_eq!(r.faces, 0b10_0101);
+        assert_eq!(r.shift, [0.0; 7]);
+        // A tie that is not exact still freezes its faces.
+        let mut g = f;
+        g[2] = 1e-13;
+        assert_eq!(Refinable::of_cell(&g, true).faces, 0b10_0101);
+    }
+
+    #[test]
+    fn peaks_ridges_and_flat_faces_at_the_isovalue_stay_frozen() {
+        // Corner 6 = (1, 1, 1) a peak at the isovalue: its faces may split
+        // (their outline collapsed onto it), the inside may not.
+        let peak = linear_cell(1.0, 1.0, 1.0, -3.0);
+        let r = Refinable::of_cell(&peak, true);
+        assert_eq!(r.faces, 0b11_1111);
+        assert!(!r.interior);
+        // A ridge: corners 2 and 6 at the isovalue, every neighbour below.
+        let ridge = linear_cell(1.0, 1.0, 0.0, -2.0);
+        assert!(!Refinable::of_cell(&ridge, true).interior);
+        // Three corners of face z = 0 at the isovalue, the fourth below.
+        let mut flat = linear_cell(0.0, 0.0, 1.0, 0.0);
+        flat[0] = -1.0;
+        let r = Refinable::of_cell(&flat, true);
+        assert_eq!(r.faces & 1 << 4, 0);
+        assert!(!r.interior);
+        // An ambiguous face with a corner at the isovalue: face z = 0 reads
+        // 0, -1, 1, -1 around.
+        let amb = [0.0, -1.0, 1.0, -1.0, 2.0, 2.0, 2.0, 2.0];
+        let r = Refinable::of_cell(&amb, true);
+        assert_eq!(r.faces & 1 << 4, 0);
+        assert!(!r.interior);
+    }
 
     /// A random cell (isovalue 0) and a random edge between two points of
     /// `S_K` on its grid edges, as Marching Cubes makes them.
