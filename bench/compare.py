@@ -563,7 +563,9 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, 
     add(f"Mode: {'quick' if quick else 'full'}; total run {elapsed:.0f} s; "
         f"{date or time.strftime('%Y-%m-%d')}.\n")
     for rr in reruns:
-        add(f"Re-run alone with `--only` ({rr['date']}, load {rr['load']:.2f}, {rr['seconds']:.0f} s): "
+        on = f", on {rr['machine']}" if rr.get("machine") and rr["machine"] != mach else ""
+        add(f"Re-run alone with `--only` ({rr['date']}{on}, load {rr['load']:.2f}, "
+            f"{rr['seconds']:.0f} s): "
             f"{', '.join(rr['volumes'])}; their rows (speed, accuracy and their ratios) come "
             "from that run, the other volumes' from the run above.\n")
     add("Times are the median of 7 runs of `Update()` (11 on the volumes under 256^3; "
@@ -841,16 +843,19 @@ def main():
     results = sorted(kept + results, key=lambda r: (r.get("scaling", False), order[r["vol"]]))
     elapsed = time.perf_counter() - start
     run = dict(seconds=elapsed, load=load, date=time.strftime("%Y-%m-%d"))
+    mach = machine()
     reruns = []
     if args.only:
-        # The header keeps the full run's figures; this run is listed apart.
-        reruns = saved.get("reruns", []) + [dict(run, volumes=sorted(only))]
+        # The header keeps the full run's figures and machine; this run is
+        # listed apart, with its own (it may be another machine).
+        reruns = saved.get("reruns", []) + [dict(run, volumes=sorted(only), machine=mach)]
         run = dict(seconds=saved["seconds"], load=saved["load"], date=saved["date"])
+        mach = saved.get("machine") or mach
     with open(os.path.join(out, "results.json"), "w") as f:
-        json.dump(dict(volumes=vols, results=results, machine=machine(), quick=args.quick,
+        json.dump(dict(volumes=vols, results=results, machine=mach, quick=args.quick,
                        reruns=reruns, **run), f, indent=1)
-    report(vols, results, out, args.quick, run["seconds"], load=run["load"], date=run["date"],
-           reruns=reruns)
+    report(vols, results, out, args.quick, run["seconds"], mach=mach, load=run["load"],
+           date=run["date"], reruns=reruns)
     plots(vols, results, out)
     print(f"bench: {len(results)} configurations in {elapsed:.0f} s; results in {out}")
     failed = [r for r in results if "error" in r]
