@@ -75,13 +75,15 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
 /// (Integer data contoured at an integer isovalue has many such samples:
 /// 8-bit data at 127 or 128 kept its Marching Cubes error, 0.11 cells,
 /// everywhere near one.) Some such corners stay frozen:
-/// - inside a cell, a corner whose neighbours along the cell's edges are
-///   all below or at the isovalue (a peak or a ridge at it): the shifted
-///   surface there is a cap or a thin tube the size of the shift, which
-///   split points cannot follow (Marching Cubes collapses its triangles);
-/// - on a face, three corners at the isovalue: the Marching Cubes outline
-///   cuts the face along the diagonal between the outer two, while `S_K`
-///   runs along its edges and the shifted surface hugs the fourth corner;
+/// - inside a cell, a corner not joined, through corners at or above the
+///   isovalue along the cell's edges, to one above it (a peak or a ridge
+///   at the isovalue): the shifted surface there is a cap or a thin tube
+///   the size of the shift, which split points cannot follow (Marching
+///   Cubes collapses its triangles);
+/// - on a face, three corners at the isovalue and the fourth below: the
+///   Marching Cubes outline cuts the face along the diagonal between the
+///   outer two, while `S_K` runs along its edges and the shifted surface
+///   hugs them;
 /// - an ambiguous face with a corner at the isovalue: its saddle decides
 ///   Marching Cubes' topology within rounding of the shift.
 #[derive(Debug, Clone, Copy)]
@@ -120,9 +122,9 @@ impl Refinable {
             let scale = g.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let zero = g.contains(&0.0);
             let near = g.iter().any(|&v| v != 0.0 && v.abs() <= TIE * scale);
-            // No corner at the isovalue between two others (see above).
-            let crossed =
-                (0..4).all(|i| g[i] != 0.0 || g[(i + 1) % 4] != 0.0 || g[(i + 3) % 4] != 0.0);
+            // Not three corners at the isovalue and the fourth below (see
+            // above).
+            let crossed = g.iter().filter(|&&v| v == 0.0).count() < 3 || g.iter().any(|&v| v > 0.0);
             let d = if zero && shift_ties && crossed {
                 TIE_SHIFT * scale
             } else {
@@ -143,13 +145,19 @@ impl Refinable {
         }
         let mut interior = faces == 0b11_1111;
         if f.contains(&0.0) {
-            let mut up = [false; 8];
-            for [a, b] in crate::tables::cube::EDGES {
-                let (a, b) = (a as usize, b as usize);
-                up[a] |= f[b] > 0.0;
-                up[b] |= f[a] > 0.0;
+            // Corners at the isovalue joined, through others at or above
+            // it along the cell's edges, to one above it.
+            let mut reached = f.map(|v| v > 0.0);
+            for _ in 0..7 {
+                for [a, b] in crate::tables::cube::EDGES {
+                    let (a, b) = (a as usize, b as usize);
+                    if f[a] >= 0.0 && f[b] >= 0.0 && reached[a] != reached[b] {
+                        reached[a] = true;
+                        reached[b] = true;
+                    }
+                }
             }
-            interior &= shift_ties && (0..8).all(|k| f[k] != 0.0 || up[k]);
+            interior &= shift_ties && (0..8).all(|k| f[k] != 0.0 || reached[k]);
             if interior {
                 shift[6] = TIE_SHIFT * f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             }
@@ -1120,6 +1128,12 @@ mod tests {
         assert_eq!(r.iso(10.0, 1, mid), 10.0 - r.shift[1]);
         assert_eq!(r.iso(10.0, 0, mid), 10.0 - r.shift[6]);
         assert_eq!(r.iso(10.0, 0b011, mid), 10.0);
+        // Corner 6 at the isovalue with no neighbour above it, but joined
+        // through corners 2 and 7 (at it) to corner 3 (above): a sheet
+        // along the face y = 1, not a ridge (8-bit data at 127).
+        let joined = [-2.0, -3.0, 0.0, 1.0, -3.0, -4.0, 0.0, 0.0];
+        let j = Refinable::of_cell(&joined, true);
+        assert!(j.interior && j.shift[3] > 0.0);
         // Other filters: every face through the corner and the inside freeze.
         let r = Refinable::of_cell(&f, false);
         assert!(!r.interior);
@@ -1139,7 +1153,7 @@ mod tests {
         let r = Refinable::of_cell(&peak, true);
         assert_eq!(r.faces, 0b11_1111);
         assert!(!r.interior);
-        // A ridge: corners 2 and 6 at the isovalue, every neighbour below.
+        // A ridge: corners 2 and 6 at the isovalue, every other corner below.
         let ridge = linear_cell(1.0, 1.0, 0.0, -2.0);
         assert!(!Refinable::of_cell(&ridge, true).interior);
         // Three corners of face z = 0 at the isovalue, the fourth below.
