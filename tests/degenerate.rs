@@ -471,6 +471,82 @@ fn refinement_reaches_epsilon_around_samples_at_the_isovalue() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Rounded wavy spheres of many gains (1 to 30 units a cell, some with
+/// noise of a unit or two), closed by a low border, at integer isovalues:
+/// samples at the isovalue on peaks, ridges, plateaus and slopes, where
+/// refinement runs on a shifted isovalue or stays frozen (README,
+/// "Samples equal to the isovalue"); every configuration must give a
+/// closed, consistently oriented surface enclosing a positive volume.
+#[test]
+fn integer_spheres_at_integer_isovalues() {
+    let cfgs = configs();
+    let mut failures = Vec::new();
+    let mut cases = 0;
+    for seed in 0..16u64 {
+        let mut rng = Rng::new(5000 + seed);
+        let dims = [
+            10 + rng.below(6) as usize,
+            9 + rng.below(6) as usize,
+            8 + rng.below(6) as usize,
+        ];
+        let gain = [1.0, 2.0, 3.0, 5.0, 10.0, 30.0][rng.below(6) as usize];
+        let noise = [0.0, 0.5, 1.5][rng.below(3) as usize];
+        let c = dims.map(|n| n as f64 / 2.0 + rng.f64());
+        let r = 2.5 + 2.0 * rng.f64();
+        let mut v: Vec<i16> = grid_fn(dims, |x, y, z| {
+            let d = ((x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2)).sqrt();
+            (20.0 + gain * (r - d + 0.4 * (0.9 * x).sin() * (0.7 * y).cos())).round()
+        })
+        .into_iter()
+        .map(|x| x as i16)
+        .collect();
+        for x in v.iter_mut() {
+            *x += (noise * (rng.f64() * 2.0 - 1.0)).round() as i16;
+        }
+        let low = (15 - (gain * 3.0) as i16).min(0);
+        set_border(&mut v, dims, low);
+        let vol = Volume::new(&v, dims_u64(dims));
+        // Four levels through the sphere's wall, and its top (peaks).
+        let top = *v.iter().max().unwrap() as f64;
+        let levels = (0..4).map(|k| (20.0 + gain * (k as f64 - 1.5)).round());
+        for iso in levels.chain([top]) {
+            if iso > low as f64 {
+                cases += 1;
+                let name = format!("sphere {seed} gain {gain} noise {noise} iso {iso}");
+                run(&name, &vol, dims, iso, CLOSED, &cfgs, &mut failures);
+            }
+        }
+    }
+    assert!(cases >= 50, "{cases} cases");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Random integers in 0..=top (top 3 to 6) with a border of 0, at every
+/// integer isovalue: plateaus, ridges and three-sample faces at the
+/// isovalue everywhere. (Refining faces with three samples at the
+/// isovalue and the fourth below, which README "Samples equal to the
+/// isovalue" keeps frozen, made surfaces of negative volume here.)
+#[test]
+fn random_integers_at_every_integer_isovalue() {
+    let cfgs = configs();
+    let mut failures = Vec::new();
+    for seed in 0..12u64 {
+        let mut rng = Rng::new(9100 + seed);
+        let dims = [9, 8, 7];
+        let top = 3 + rng.below(4);
+        let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])
+            .map(|_| rng.below(top + 1) as i16)
+            .collect();
+        set_border(&mut v, dims, 0);
+        let vol = Volume::new(&v, dims_u64(dims));
+        for iso in 1..=top {
+            let name = format!("random {seed} top {top} iso {iso}");
+            run(&name, &vol, dims, iso as f64, CLOSED, &cfgs, &mut failures);
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Random integers in 0..=4 with a border of 0; the isovalue on every
 /// integer level. Iso 0 puts every sample inside (no surface); iso 4 is
 /// the maximum (the surface shrinks onto the samples equal to 4: isolated
