@@ -1180,7 +1180,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 if refinable.interior {
                     out.counters.recut_polygons += choose_diagonals::<F>(
                         &fc,
-                        sh.iso - refinable.shift[6],
+                        refinable.iso(sh.iso, 0, DVec3::ZERO),
                         opts.epsilon,
                         &mut kept,
                         &mut pos_of,

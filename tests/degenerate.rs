@@ -521,6 +521,15 @@ fn integer_spheres_at_integer_isovalues() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Random integers in `0..=top` on `dims`, with a border of 0.
+fn random_integers(rng: &mut Rng, dims: [usize; 3], top: u64) -> Vec<i16> {
+    let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])
+        .map(|_| rng.below(top + 1) as i16)
+        .collect();
+    set_border(&mut v, dims, 0);
+    v
+}
+
 /// Random integers in 0..=top (top 3 to 6) with a border of 0, at every
 /// integer isovalue: plateaus, ridges and three-sample faces at the
 /// isovalue everywhere. (Refining faces with three samples at the
@@ -534,10 +543,7 @@ fn random_integers_at_every_integer_isovalue() {
         let mut rng = Rng::new(9100 + seed);
         let dims = [9, 8, 7];
         let top = 3 + rng.below(4);
-        let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])
-            .map(|_| rng.below(top + 1) as i16)
-            .collect();
-        set_border(&mut v, dims, 0);
+        let v = random_integers(&mut rng, dims, top);
         let vol = Volume::new(&v, dims_u64(dims));
         for iso in 1..=top {
             let name = format!("random {seed} top {top} iso {iso}");
@@ -558,10 +564,7 @@ fn isovalue_on_integer_samples() {
     for seed in 0..3u64 {
         let dims = [9, 8, 7];
         let mut rng = Rng::new(700 + seed);
-        let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])
-            .map(|_| rng.below(5) as i16)
-            .collect();
-        set_border(&mut v, dims, 0);
+        let v = random_integers(&mut rng, dims, 4);
         let vol = Volume::new(&v, dims_u64(dims));
         run(
             &format!("seed {seed} iso 0"),
