@@ -809,7 +809,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         pinch_fans: REFINE,
         ..Patch::default()
     };
-    let mut stack: Vec<Tri> = Vec::with_capacity(64);
     let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut tested = Vec::with_capacity(16);
@@ -1242,7 +1241,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         max_level: sh.max_level,
                         rule: opts.rule,
                         counters: &mut out.counters,
-                        stack: &mut stack,
                         cache: &mut cache,
                         interior_fallback: attempt == 0,
                         leaf_budget,

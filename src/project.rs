@@ -216,8 +216,9 @@ pub fn test<F: ReconstructionFilter>(
 }
 
 /// [`test`], given the filter's value and gradient at `p` (as
-/// [`ReconstructionFilter::value_gradient`] returns them).
-#[inline]
+/// [`ReconstructionFilter::value_gradient`] returns them). Always inlined,
+/// for the reason [`crate::refine`]'s `sample_from` is.
+#[inline(always)]
 pub(crate) fn test_from<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,

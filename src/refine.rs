@@ -27,8 +27,6 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     pub max_level: u32,
     pub rule: Rule,
     pub counters: &'c mut Counters,
-    /// Work stack, reused between calls.
-    pub stack: &'c mut Vec<Tri>,
     /// Decisions of the cell's edges so far, keyed by vertex ids: an edge
     /// shared by two triangles of the cell is tested once (the decision is
     /// a pure function of the edge, so this changes nothing but time).
@@ -403,9 +401,11 @@ pub(crate) fn sample<F: ReconstructionFilter>(
     sample_from::<F>(cell, iso, p, vg, fixed, epsilon, fallback, reach)
 }
 
-/// [`sample`], given the filter's value and gradient at `p`.
+/// [`sample`], given the filter's value and gradient at `p`. Always
+/// inlined: handed over through memory, the value and gradient were read
+/// back wider than written (a store-forwarding stall on every sample).
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn sample_from<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
@@ -810,259 +810,284 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         emit: &mut impl FnMut(&Tri),
         vertex: &mut impl FnMut(DVec3) -> u32,
     ) -> bool {
-        self.stack.clear();
-        self.stack.push(root);
-        while let Some(t) = self.stack.pop() {
-            let lvl = t.level as usize;
-            self.counters.nodes_per_level[lvl.min(15)] += 1;
-            if t.level as u32 >= self.max_level {
-                if count_above {
-                    let (far, stalled) = self.above(&t);
-                    self.counters.above_eps += far as u64;
-                    self.counters.stalled_leaves += stalled as u64;
-                }
-                if !self.leaf(&t, emit) {
-                    return false;
-                }
-                continue;
+        self.node(&root, count_above, emit, vertex)
+    }
+
+    /// Refines `t` and, depth first, its children (the tree is at most
+    /// `max_level` deep). Recursion rather than a stack of triangles:
+    /// each child is read where it was built, where a copy through a
+    /// stack cost store-forwarding stalls on every node.
+    fn node(
+        &mut self,
+        t: &Tri,
+        count_above: bool,
+        emit: &mut impl FnMut(&Tri),
+        vertex: &mut impl FnMut(DVec3) -> u32,
+    ) -> bool {
+        let lvl = t.level as usize;
+        self.counters.nodes_per_level[lvl.min(15)] += 1;
+        if t.level as u32 >= self.max_level {
+            if count_above {
+                let (far, stalled) = self.above(t);
+                self.counters.above_eps += far as u64;
+                self.counters.stalled_leaves += stalled as u64;
             }
-            // Bit e of `split`: edge e splits at `mid_p[e]`. (A mask and a
-            // plain array: arrays of Option<DVec3> cost store-forwarding
-            // stalls on every copy.)
-            let mut split = 0u8;
-            let mut mid_p = [DVec3::ZERO; 3];
-            let mut midpoint = [DVec3::ZERO; 3];
-            let mut keys = [0u64; 3];
-            for e in 0..3 {
-                midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-                if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
-                    keys[e] = edge_key(t.v[e], t.v[(e + 1) % 3]);
-                    let d = match self.cache.get(keys[e]) {
-                        Some(d) => d,
-                        None => {
-                            let s = sample_edge::<F>(
-                                self.cell,
-                                self.refinable.iso(self.iso, t.fixed[e], midpoint[e]),
-                                t.p[e],
-                                t.p[(e + 1) % 3],
-                                t.fixed[e],
-                                self.epsilon,
-                                self.interior_fallback,
-                            );
-                            self.count(&s);
-                            let r = s.split;
-                            let d = EdgeDecision {
-                                point: r.unwrap_or(DVec3::ZERO),
-                                split: r.is_some(),
-                                ..EdgeDecision::default()
-                            };
-                            self.cache.insert_new(keys[e], d);
-                            d
-                        }
-                    };
-                    if d.split {
-                        split |= 1 << e;
-                        mid_p[e] = d.point;
+            return self.leaf(t, emit);
+        }
+        // Bit e of `split`: edge e splits at `mid_p[e]`. (A mask and a
+        // plain array: arrays of Option<DVec3> cost store-forwarding
+        // stalls on every copy.)
+        let mut split = 0u8;
+        let mut mid_p = [DVec3::ZERO; 3];
+        let mut midpoint = [DVec3::ZERO; 3];
+        let mut keys = [0u64; 3];
+        for e in 0..3 {
+            midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
+            if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
+                keys[e] = edge_key(t.v[e], t.v[(e + 1) % 3]);
+                let d = match self.cache.get(keys[e]) {
+                    Some(d) => d,
+                    None => {
+                        let s = sample_edge::<F>(
+                            self.cell,
+                            self.refinable.iso(self.iso, t.fixed[e], midpoint[e]),
+                            t.p[e],
+                            t.p[(e + 1) % 3],
+                            t.fixed[e],
+                            self.epsilon,
+                            self.interior_fallback,
+                        );
+                        self.count(&s);
+                        let r = s.split;
+                        let d = EdgeDecision {
+                            point: r.unwrap_or(DVec3::ZERO),
+                            split: r.is_some(),
+                            ..EdgeDecision::default()
+                        };
+                        self.cache.insert_new(keys[e], d);
+                        d
                     }
-                }
-            }
-            let splits = |e: usize| split & (1 << e) != 0;
-            let nsplit = split.count_ones() as usize;
-            let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
-            // Only for a centre that is tested (not on Rule A's path).
-            let longest = || {
-                (0..3)
-                    .map(|e| (t.p[(e + 1) % 3] - t.p[e]).length_squared())
-                    .fold(0.0, f64::max)
-                    .sqrt()
-            };
-            let centre = match self.rule {
-                _ if !self.refinable.interior => None,
-                Rule::A => None,
-                Rule::A1 => {
-                    if nsplit == 0 {
-                        self.test(centroid, 0, longest())
-                    } else {
-                        None
-                    }
-                }
-                Rule::B => self.test(centroid, 0, longest()),
-                Rule::A2 => {
-                    let mut shift = DVec3::ZERO;
-                    for e in 0..3 {
-                        if splits(e) {
-                            shift += mid_p[e] - midpoint[e];
-                        }
-                    }
-                    if nsplit > 0 {
-                        shift /= nsplit as f64;
-                    }
-                    let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
-                    self.test(cand, 0, longest())
-                }
-            };
-            if nsplit == 0 && centre.is_none() {
-                if !self.leaf(&t, emit) {
-                    return false;
-                }
-                continue;
-            }
-            self.counters.splits += nsplit as u64 + centre.is_some() as u64;
-            // Ids and positions of the triangle's points by slot: its
-            // corners, its edges' split points, its centre.
-            let mut ids = [
-                t.v[0],
-                t.v[1],
-                t.v[2],
-                u32::MAX,
-                u32::MAX,
-                u32::MAX,
-                u32::MAX,
-            ];
-            let mut pos = [
-                t.p[0],
-                t.p[1],
-                t.p[2],
-                mid_p[0],
-                mid_p[1],
-                mid_p[2],
-                DVec3::ZERO,
-            ];
-            for e in 0..3 {
-                if splits(e) {
-                    // A split edge was tested, so it has an entry.
-                    if let Some(entry) = self.cache.get_mut(keys[e]) {
-                        if entry.id == u32::MAX {
-                            entry.id = vertex(mid_p[e]);
-                        }
-                        ids[M0 + e] = entry.id;
-                    }
+                };
+                if d.split {
+                    split |= 1 << e;
+                    mid_p[e] = d.point;
                 }
             }
-            if let Some(c) = centre {
-                ids[C] = vertex(c);
-                pos[C] = c;
+        }
+        let splits = |e: usize| split & (1 << e) != 0;
+        let nsplit = split.count_ones() as usize;
+        let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+        // Only for a centre that is tested (not on Rule A's path).
+        let longest = || {
+            (0..3)
+                .map(|e| (t.p[(e + 1) % 3] - t.p[e]).length_squared())
+                .fold(0.0, f64::max)
+                .sqrt()
+        };
+        let centre = match self.rule {
+            _ if !self.refinable.interior => None,
+            Rule::A => None,
+            Rule::A1 => {
+                if nsplit == 0 {
+                    self.test(centroid, 0, longest())
+                } else {
+                    None
+                }
             }
-            let mut children = [[C as u8; 3]; 6];
-            let mut n = 0;
-            if centre.is_some() {
-                let mut ring = [C as u8; 6];
-                let mut len = 0;
+            Rule::B => self.test(centroid, 0, longest()),
+            Rule::A2 => {
+                let mut shift = DVec3::ZERO;
                 for e in 0..3 {
-                    ring[len] = e as u8;
-                    len += 1;
                     if splits(e) {
-                        ring[len] = (M0 + e) as u8;
-                        len += 1;
+                        shift += mid_p[e] - midpoint[e];
                     }
                 }
-                for k in 0..len {
-                    children[n] = [ring[k], ring[(k + 1) % len], C as u8];
-                    n += 1;
+                if nsplit > 0 {
+                    shift /= nsplit as f64;
                 }
-            } else {
-                let (v, m) = (|i: usize| (i % 3) as u8, |e: usize| (M0 + e % 3) as u8);
-                match nsplit {
-                    1 => {
-                        let e = (0..3).find(|&e| splits(e)).unwrap();
-                        children[0] = [v(e), m(e), v(e + 2)];
-                        children[1] = [m(e), v(e + 1), v(e + 2)];
-                        n = 2;
+                let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
+                self.test(cand, 0, longest())
+            }
+        };
+        if nsplit == 0 && centre.is_none() {
+            return self.leaf(t, emit);
+        }
+        self.counters.splits += nsplit as u64 + centre.is_some() as u64;
+        // Ids and positions of the triangle's points by slot: its
+        // corners, its edges' split points, its centre.
+        let mut ids = [
+            t.v[0],
+            t.v[1],
+            t.v[2],
+            u32::MAX,
+            u32::MAX,
+            u32::MAX,
+            u32::MAX,
+        ];
+        let mut pos = [
+            t.p[0],
+            t.p[1],
+            t.p[2],
+            mid_p[0],
+            mid_p[1],
+            mid_p[2],
+            DVec3::ZERO,
+        ];
+        for e in 0..3 {
+            if splits(e) {
+                // A split edge was tested, so it has an entry.
+                if let Some(entry) = self.cache.get_mut(keys[e]) {
+                    if entry.id == u32::MAX {
+                        entry.id = vertex(mid_p[e]);
                     }
-                    2 => {
-                        let u = (0..3).find(|&e| !splits(e)).unwrap();
-                        let (e1, e2) = ((u + 1) % 3, (u + 2) % 3);
-                        children[0] = [m(e1), v(u + 2), m(e2)];
-                        let d1 = (t.p[u] - mid_p[e1]).length_squared();
-                        let d2 = (t.p[(u + 1) % 3] - mid_p[e2]).length_squared();
-                        if d1 <= d2 {
-                            children[1] = [v(u), v(u + 1), m(e1)];
-                            children[2] = [v(u), m(e1), m(e2)];
-                        } else {
-                            children[1] = [v(u), v(u + 1), m(e2)];
-                            children[2] = [v(u + 1), m(e1), m(e2)];
-                        }
-                        n = 3;
-                    }
-                    _ => {
-                        children[0] = [v(0), m(0), m(2)];
-                        children[1] = [m(0), v(1), m(1)];
-                        children[2] = [m(2), m(1), v(2)];
-                        children[3] = [m(0), m(1), m(2)];
-                        n = 4;
-                    }
+                    ids[M0 + e] = entry.id;
                 }
             }
-            // Split points of different edges may land on the same point of
-            // `S_K` (straight gradient lines can meet there). A child with two
-            // such corners has no area, and two children on the same corners
-            // are the two sides of a pinched-off fold: both are dropped. The
-            // edges around them are then shared by the neighbours directly,
-            // so the mesh stays closed and manifold. Positions, not ids, are
-            // compared so that counting (distinct ids) agrees with output.
-            let corners = |ch: [u8; 3]| ch.map(|s| pos[s as usize]);
-            let mut keep = [true; 6];
-            // When the new points differ from each other and from the
-            // corners, every child has three distinct corners and no two
-            // children share them: the checks below are skipped.
-            let mut fresh = [DVec3::ZERO; 4];
-            let mut nfresh = 0;
+        }
+        if let Some(c) = centre {
+            ids[C] = vertex(c);
+            pos[C] = c;
+        }
+        let mut children = [[C as u8; 3]; 6];
+        let mut n = 0;
+        if centre.is_some() {
+            let mut ring = [C as u8; 6];
+            let mut len = 0;
             for e in 0..3 {
+                ring[len] = e as u8;
+                len += 1;
                 if splits(e) {
-                    fresh[nfresh] = mid_p[e];
-                    nfresh += 1;
+                    ring[len] = (M0 + e) as u8;
+                    len += 1;
                 }
             }
-            if let Some(c) = centre {
-                fresh[nfresh] = c;
+            for k in 0..len {
+                children[n] = [ring[k], ring[(k + 1) % len], C as u8];
+                n += 1;
+            }
+        } else {
+            let (v, m) = (|i: usize| (i % 3) as u8, |e: usize| (M0 + e % 3) as u8);
+            match nsplit {
+                1 => {
+                    let e = (0..3).find(|&e| splits(e)).unwrap();
+                    children[0] = [v(e), m(e), v(e + 2)];
+                    children[1] = [m(e), v(e + 1), v(e + 2)];
+                    n = 2;
+                }
+                2 => {
+                    let u = (0..3).find(|&e| !splits(e)).unwrap();
+                    let (e1, e2) = ((u + 1) % 3, (u + 2) % 3);
+                    children[0] = [m(e1), v(u + 2), m(e2)];
+                    let d1 = (t.p[u] - mid_p[e1]).length_squared();
+                    let d2 = (t.p[(u + 1) % 3] - mid_p[e2]).length_squared();
+                    if d1 <= d2 {
+                        children[1] = [v(u), v(u + 1), m(e1)];
+                        children[2] = [v(u), m(e1), m(e2)];
+                    } else {
+                        children[1] = [v(u), v(u + 1), m(e2)];
+                        children[2] = [v(u + 1), m(e1), m(e2)];
+                    }
+                    n = 3;
+                }
+                _ => {
+                    children[0] = [v(0), m(0), m(2)];
+                    children[1] = [m(0), v(1), m(1)];
+                    children[2] = [m(2), m(1), v(2)];
+                    children[3] = [m(0), m(1), m(2)];
+                    n = 4;
+                }
+            }
+        }
+        // Split points of different edges may land on the same point of
+        // `S_K` (straight gradient lines can meet there). A child with two
+        // such corners has no area, and two children on the same corners
+        // are the two sides of a pinched-off fold: both are dropped. The
+        // edges around them are then shared by the neighbours directly,
+        // so the mesh stays closed and manifold. Positions, not ids, are
+        // compared so that counting (distinct ids) agrees with output.
+        // Element by element: `array::map` assembles the array with
+        // stores of other widths than the copy that reads it (a
+        // store-forwarding stall on every child).
+        let corners = |ch: [u8; 3]| {
+            [
+                pos[ch[0] as usize],
+                pos[ch[1] as usize],
+                pos[ch[2] as usize],
+            ]
+        };
+        let mut keep = [true; 6];
+        // When the new points differ from each other and from the
+        // corners, every child has three distinct corners and no two
+        // children share them: the checks below are skipped.
+        let mut fresh = [DVec3::ZERO; 4];
+        let mut nfresh = 0;
+        for e in 0..3 {
+            if splits(e) {
+                fresh[nfresh] = mid_p[e];
                 nfresh += 1;
             }
-            let distinct = (0..nfresh)
-                .all(|a| !t.p.contains(&fresh[a]) && (a + 1..nfresh).all(|b| fresh[a] != fresh[b]));
-            if !distinct {
-                for x in 0..n {
-                    let [a, b, c] = corners(children[x]);
-                    if a == b || b == c || a == c {
-                        keep[x] = false;
-                    }
+        }
+        if let Some(c) = centre {
+            fresh[nfresh] = c;
+            nfresh += 1;
+        }
+        let distinct = (0..nfresh)
+            .all(|a| !t.p.contains(&fresh[a]) && (a + 1..nfresh).all(|b| fresh[a] != fresh[b]));
+        if !distinct {
+            for x in 0..n {
+                let [a, b, c] = corners(children[x]);
+                if a == b || b == c || a == c {
+                    keep[x] = false;
                 }
-                for x in 0..n {
-                    for y in x + 1..n {
-                        if keep[x]
-                            && keep[y]
-                            && same_corners(corners(children[x]), corners(children[y]))
-                        {
-                            keep[x] = false;
-                            keep[y] = false;
-                        }
+            }
+            for x in 0..n {
+                for y in x + 1..n {
+                    if keep[x]
+                        && keep[y]
+                        && same_corners(corners(children[x]), corners(children[y]))
+                    {
+                        keep[x] = false;
+                        keep[y] = false;
                     }
                 }
             }
-            // A child edge along a parent edge keeps its fixed axes; one
-            // joining two of the parent's corners is that whole, unsplit
-            // edge, tested (or known) near.
-            let edge_of = |a: u8, b: u8| -> (u8, u8) {
-                match PARENT_EDGE[a as usize][b as usize] {
-                    NO_EDGE => (0, 0),
-                    e => (t.fixed[e as usize], (a < M0 as u8 && b < M0 as u8) as u8),
-                }
+        }
+        // A child edge along a parent edge keeps its fixed axes; one
+        // joining two of the parent's corners is that whole, unsplit
+        // edge, tested (or known) near.
+        let edge_of = |a: u8, b: u8| -> (u8, u8) {
+            match PARENT_EDGE[a as usize][b as usize] {
+                NO_EDGE => (0, 0),
+                e => (t.fixed[e as usize], (a < M0 as u8 && b < M0 as u8) as u8),
+            }
+        };
+        for x in 0..n {
+            if !keep[x] {
+                continue;
+            }
+            let ch = children[x];
+            let (f0, n0) = edge_of(ch[0], ch[1]);
+            let (f1, n1) = edge_of(ch[1], ch[2]);
+            let (f2, n2) = edge_of(ch[2], ch[0]);
+            let mut child = Tri {
+                v: [
+                    ids[ch[0] as usize],
+                    ids[ch[1] as usize],
+                    ids[ch[2] as usize],
+                ],
+                p: [DVec3::ZERO; 3],
+                fixed: [f0, f1, f2],
+                level: t.level + 1,
+                near: n0 | n1 << 1 | n2 << 2,
             };
-            // Push in reverse so children come out in order.
-            for x in (0..n).rev() {
-                if !keep[x] {
-                    continue;
-                }
-                let ch = children[x];
-                let (f0, n0) = edge_of(ch[0], ch[1]);
-                let (f1, n1) = edge_of(ch[1], ch[2]);
-                let (f2, n2) = edge_of(ch[2], ch[0]);
-                self.stack.push(Tri {
-                    v: ch.map(|s| ids[s as usize]),
-                    p: corners(ch),
-                    fixed: [f0, f1, f2],
-                    level: t.level + 1,
-                    near: n0 | n1 << 1 | n2 << 2,
-                });
+            // Corner by corner into place: a whole array built apart
+            // and copied in is read back with loads of other widths
+            // than its stores (a store-forwarding stall every child).
+            for k in 0..3 {
+                child.p[k] = pos[ch[k] as usize];
+            }
+            if !self.node(&child, count_above, emit, vertex) {
+                return false;
             }
         }
         true
