@@ -1005,9 +1005,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         // edges around them are then shared by the neighbours directly,
         // so the mesh stays closed and manifold. Positions, not ids, are
         // compared so that counting (distinct ids) agrees with output.
-        // Element by element: `array::map` assembles the array with
-        // stores of other widths than the copy that reads it (a
-        // store-forwarding stall on every child).
+        // Element by element, like the children's corners below:
+        // `array::map` assembles an array with stores of other widths
+        // than the copy that reads it (a store-forwarding stall).
         let corners = |ch: [u8; 3]| {
             [
                 pos[ch[0] as usize],
