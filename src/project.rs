@@ -77,8 +77,15 @@ pub fn project<F: ReconstructionFilter>(
     }
     let d = g / len;
     let (lo, hi) = clip_to_cell(p, d)?;
-    let q = |t: f64| F::value(cell, p + d * t) - iso;
-    let q0 = q(0.0);
+    // Where the filter is a cubic along lines, its polynomial stands in for
+    // it: a few operations a value, where the filter's own evaluation took
+    // several times that (the search below takes a dozen or more).
+    let cubic = F::line_cubic(cell, p, d);
+    let q0 = F::value(cell, p) - iso;
+    let q = |t: f64| match cubic {
+        Some((a2, a3)) => q0 + t * (len + t * (a2 + t * a3)),
+        None => F::value(cell, p + d * t) - iso,
+    };
     if q0 == 0.0 {
         return Some(Projection {
             point: p,

@@ -667,27 +667,12 @@ fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
             continue;
         }
         let q = DVec3::new(corner[0] as f64, corner[1] as f64, corner[2] as f64);
-        // Bisection on the segment c -> corner: F changes sign along it.
-        let (mut a, mut b) = (0.0f64, 1.0f64);
-        for _ in 0..100 {
-            let m = 0.5 * (a + b);
-            if m == a || m == b {
-                // Adjacent numbers: no further step changes the interval.
-                break;
-            }
-            let fm = trilinear_value(f, c + (q - c) * m);
-            if fm == 0.0 {
-                a = m;
-                b = m;
-                break;
-            }
-            if (fm >= 0.0) == (fc >= 0.0) {
-                a = m;
-            } else {
-                b = m;
-            }
-        }
-        let p = c + (q - c) * (0.5 * (a + b));
+        // F changes sign along the segment c -> corner: its root, by the
+        // same Illinois iteration as projections (a few values, where a
+        // bisection to adjacent numbers took some fifty).
+        let along = |s: f64| trilinear_value(f, c + (q - c) * s);
+        let s = crate::project::solve(&along, 0.0, fc, 1.0, f[k]);
+        let p = c + (q - c) * s;
         let d = (p - c).length();
         if best.map_or(true, |(bd, _)| d < bd) {
             best = Some((d, p));
