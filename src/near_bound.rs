@@ -124,31 +124,30 @@ impl CellBounds {
         }
         let n = DVec3::from_array(mean).normalize_or_zero().to_array();
         // Per corner and axis, the gradient's term along `n`; then per
-        // mask the least sum over the free axes (plain comparisons: this
-        // runs for every refined cell).
+        // mask the least sum over the free axes (plain comparisons, the
+        // masks unrolled, each sum in the order of its axes: this runs for
+        // every refined cell).
         let terms = corner.map(|g| [g[0] * n[0], g[1] * n[1], g[2] * n[2]]);
+        let mut along = [f64::INFINITY; 4];
+        for t in &terms {
+            let sums = [t[0] + t[1] + t[2], t[1] + t[2], t[0] + t[2], t[0] + t[1]];
+            for (m, v) in along.iter_mut().zip(sums) {
+                if v < *m {
+                    *m = v;
+                }
+            }
+        }
+        let sq = slope.map(|s| s * s);
+        let nn = n.map(|v| v * v);
         let mut least = [0.0; 8];
-        for fixed in [0usize, 1, 2, 4] {
-            let (mut m2, mut n2) = (0.0, 0.0);
-            for a in 0..3 {
-                if fixed & (1 << a) == 0 {
-                    m2 += slope[a] * slope[a];
-                    n2 += n[a] * n[a];
-                }
-            }
-            let mut along = f64::INFINITY;
-            for t in &terms {
-                let mut v = 0.0;
-                for a in 0..3 {
-                    if fixed & (1 << a) == 0 {
-                        v += t[a];
-                    }
-                }
-                if v < along {
-                    along = v;
-                }
-            }
-            let along = if n2 > 0.0 { along / n2.sqrt() } else { 0.0 };
+        for (i, fixed) in [0usize, 1, 2, 4].into_iter().enumerate() {
+            let (m2, n2) = match fixed {
+                0 => (sq[0] + sq[1] + sq[2], nn[0] + nn[1] + nn[2]),
+                1 => (sq[1] + sq[2], nn[1] + nn[2]),
+                2 => (sq[0] + sq[2], nn[0] + nn[2]),
+                _ => (sq[0] + sq[1], nn[0] + nn[1]),
+            };
+            let along = if n2 > 0.0 { along[i] / n2.sqrt() } else { 0.0 };
             least[fixed] = f64::sqrt(m2).max(along);
         }
         let scale = c.iter().fold(iso.abs(), |m, v| m.max(v.abs()));

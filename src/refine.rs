@@ -302,6 +302,7 @@ pub(crate) struct Tri {
 
 /// Fixed axes shared by two points: those where both have the same
 /// coordinate 0 or 1 (they lie on the same cell face or edge).
+#[inline]
 pub(crate) fn shared_fixed_axes(a: DVec3, b: DVec3) -> u8 {
     let mut m = 0;
     for k in 0..3 {
