@@ -651,7 +651,7 @@ fn fan_facing(f: &[f64; 8], c: glam::DVec3, l: &[u8]) -> f64 {
 /// other sign (one always exists: the loop separates inside corners from
 /// outside ones), so the point is always on `S_K`.
 fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
-    use crate::filter::{trilinear_value, Trilinear};
+    use crate::filter::{trilinear_line_cubic, trilinear_value_gradient, Trilinear};
     use glam::DVec3;
     let mut c = DVec3::ZERO;
     for &e in l {
@@ -660,17 +660,20 @@ fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
     if let Some(pr) = crate::project::project::<Trilinear<'static, f64>>(f, 0.0, c, 0) {
         return pr.point.to_array();
     }
-    let fc = trilinear_value(f, c);
+    let (fc, g) = trilinear_value_gradient(f, c);
     let mut best: Option<(f64, DVec3)> = None;
     for (k, corner) in CORNERS.iter().enumerate() {
         if (f[k] >= 0.0) == (fc >= 0.0) {
             continue;
         }
         let q = DVec3::new(corner[0] as f64, corner[1] as f64, corner[2] as f64);
-        // F changes sign along the segment c -> corner: its root, by the
-        // same Illinois iteration as projections (a few values, where a
-        // bisection to adjacent numbers took some fifty).
-        let along = |s: f64| trilinear_value(f, c + (q - c) * s);
+        // F changes sign along the segment c -> corner, where it is a
+        // cubic: its root, by the same Illinois iteration as projections
+        // (a few values of the polynomial, where a bisection of the
+        // filter to adjacent numbers took some fifty).
+        let d = q - c;
+        let (a1, (a2, a3)) = (g.dot(d), trilinear_line_cubic(f, c, d));
+        let along = |s: f64| fc + s * (a1 + s * (a2 + s * a3));
         let s = crate::project::solve(&along, 0.0, fc, 1.0, f[k]);
         let p = c + (q - c) * s;
         let d = (p - c).length();
