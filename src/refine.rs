@@ -119,8 +119,9 @@ impl Refinable {
     /// farther from the isovalue than [`TIE`] of the largest (so no face
     /// has a corner at or near it, and nothing shifts): only ambiguous
     /// faces' saddles can then tie. `None` for any other cell (or NaN).
-    /// This runs for every refined cell, where the general path's six
-    /// faces of folds took a tenth of a smooth volume's refinement.
+    /// This runs for every refined cell, where the general path (six
+    /// faces, several passes over each one's corners) took a tenth of a
+    /// smooth volume's refinement at a coarse epsilon.
     #[inline]
     fn without_ties(f: &[f64; 8]) -> Option<Self> {
         use crate::tables::cube::FACES;
