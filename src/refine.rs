@@ -96,6 +96,22 @@ pub(crate) struct Refinable {
     pub shift: [f64; 7],
 }
 
+/// Whether a face with corner values `g` (less the isovalue, in cyclic
+/// order) is ambiguous: one diagonal's corners above, the other's not.
+#[inline]
+fn face_ambiguous(g: &[f64; 4]) -> bool {
+    let s = g.map(|v| v > 0.0);
+    s[0] == s[2] && s[1] == s[3] && s[0] != s[1]
+}
+
+/// Whether an ambiguous face's saddle lies within rounding ([`TIE`]) of
+/// the isovalue: its diagonals' products are then all but equal.
+#[inline]
+fn saddle_tie(g: &[f64; 4]) -> bool {
+    let (d0, d1) = (g[0] * g[2], g[1] * g[3]);
+    (d0 - d1).abs() <= TIE * d0.abs().max(d1.abs())
+}
+
 /// The shift of a face (cell) with a corner at the isovalue, relative to
 /// its largest corner value: far above rounding (the nearest corner
 /// value that is not a tie is at least [`TIE`] of it), far below any
@@ -133,12 +149,8 @@ impl Refinable {
         let mut faces = 0b11_1111u8;
         for (bit, (_, _, c)) in FACES.iter().enumerate() {
             let g = c.map(|k| f[k as usize]);
-            let s = g.map(|v| v > 0.0);
-            if s[0] == s[2] && s[1] == s[3] && s[0] != s[1] {
-                let (d0, d1) = (g[0] * g[2], g[1] * g[3]);
-                if (d0 - d1).abs() <= TIE * d0.abs().max(d1.abs()) {
-                    faces &= !(1 << bit);
-                }
+            if face_ambiguous(&g) && saddle_tie(&g) {
+                faces &= !(1 << bit);
             }
         }
         Some(Refinable {
@@ -167,12 +179,8 @@ impl Refinable {
                 0.0
             };
             let g = g.map(|v| v + d);
-            let s = g.map(|v| v > 0.0);
-            let ambiguous = s[0] == s[2] && s[1] == s[3] && s[0] != s[1];
-            let (d0, d1) = (g[0] * g[2], g[1] * g[3]);
-            let tie = near
-                || (zero && (d == 0.0 || ambiguous))
-                || (ambiguous && (d0 - d1).abs() <= TIE * d0.abs().max(d1.abs()));
+            let ambiguous = face_ambiguous(&g);
+            let tie = near || (zero && (d == 0.0 || ambiguous)) || (ambiguous && saddle_tie(&g));
             let bit = 2 * axis as usize + side as usize;
             if !tie {
                 faces |= 1 << bit;

@@ -671,11 +671,11 @@ fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
         // cubic: its root, by the same Illinois iteration as projections
         // (a few values of the polynomial, where a bisection of the
         // filter to adjacent numbers took some fifty).
-        let d = q - c;
-        let (a1, (a2, a3)) = (g.dot(d), trilinear_line_cubic(f, c, d));
+        let dir = q - c;
+        let (a1, (a2, a3)) = (g.dot(dir), trilinear_line_cubic(f, c, dir));
         let along = |s: f64| fc + s * (a1 + s * (a2 + s * a3));
         let s = crate::project::solve(&along, 0.0, fc, 1.0, f[k]);
-        let p = c + (q - c) * s;
+        let p = c + dir * s;
         let d = (p - c).length();
         if best.map_or(true, |(bd, _)| d < bd) {
             best = Some((d, p));
