@@ -16,7 +16,7 @@
 //! edges) is then moved to the foot of the sample on `S_K` by a few
 //! Gauss-Newton steps, so that nearby samples do not share it.
 
-use std::collections::BinaryHeap;
+use std::cell::Cell;
 
 use glam::DVec3;
 
@@ -113,9 +113,15 @@ fn halving_grid_of_multilinear(f: &[f64; 8]) -> [f64; 27] {
     for (k, c) in CORNERS.iter().enumerate() {
         grid[2 * c[0] as usize + 6 * c[1] as usize + 18 * c[2] as usize] = f[k];
     }
-    for (g, a, b) in GRID_MIDPOINTS {
-        grid[g as usize] = 0.5 * (grid[a as usize] + grid[b as usize]);
+    // Unrolled with constant indices (a loop over the table kept them in
+    // memory and took four times as long; this runs for every box).
+    macro_rules! means {
+        ($($i:literal)*) => {$({
+            const M: (u8, u8, u8) = GRID_MIDPOINTS[$i];
+            grid[M.0 as usize] = 0.5 * (grid[M.1 as usize] + grid[M.2 as usize]);
+        })*};
     }
+    means!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18);
     grid
 }
 
@@ -137,48 +143,81 @@ const CHILD_GRID: [[u8; 8]; 8] = {
     t
 };
 
-/// A box in the search's queue: where it is, and its corner values' index
-/// in the search's list of them (kept apart so that the heap moves small
-/// entries). Ordered so that the heap's top is the nearest box, ties
-/// broken by size (larger first) and position: a total order, so the
-/// search does not depend on the order boxes were queued.
-struct Queued {
-    lo: DVec3,
-    size: f64,
-    lower: f64,
-    values: u32,
+/// Whether box `b` comes before box `c` in the search: the nearer first,
+/// ties broken by size (larger first) and position. A total order (no
+/// two boxes of a search are equal in all of these), so the search does
+/// not depend on the order boxes were queued.
+#[inline]
+fn before(b: &Cube, c: &Cube) -> bool {
+    b.lower
+        .total_cmp(&c.lower)
+        .then_with(|| c.size.total_cmp(&b.size))
+        .then_with(|| b.lo.x.total_cmp(&c.lo.x))
+        .then_with(|| b.lo.y.total_cmp(&c.lo.y))
+        .then_with(|| b.lo.z.total_cmp(&c.lo.z))
+        .is_lt()
 }
 
-impl Queued {
-    fn rank(&self, other: &Self) -> std::cmp::Ordering {
-        let (b, c) = (self, other);
-        b.lower
-            .total_cmp(&c.lower)
-            .then(c.size.total_cmp(&b.size))
-            .then(b.lo.x.total_cmp(&c.lo.x))
-            .then(b.lo.y.total_cmp(&c.lo.y))
-            .then(b.lo.z.total_cmp(&c.lo.z))
+/// The open boxes of a search, first ([`before`]) on top: a binary heap
+/// of indices into every box queued (searches that open thousands of
+/// boxes, in cells where `S_K` folds tightly, stay n log n). Sifting four
+/// byte indices, where a heap of the boxes' keys moved forty bytes a
+/// step, took a third of the search's time.
+#[derive(Default)]
+struct Queue {
+    heap: Vec<u32>,
+    boxes: Vec<Cube>,
+}
+
+impl Queue {
+    fn clear(&mut self) {
+        self.heap.clear();
+        self.boxes.clear();
     }
-}
 
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.rank(other).is_eq()
+    fn push(&mut self, c: Cube) {
+        let (heap, boxes) = (&mut self.heap, &mut self.boxes);
+        let id = boxes.len() as u32;
+        boxes.push(c);
+        let mut i = heap.len();
+        heap.push(id);
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if !before(&boxes[id as usize], &boxes[heap[parent] as usize]) {
+                break;
+            }
+            heap[i] = heap[parent];
+            i = parent;
+        }
+        heap[i] = id;
     }
-}
 
-impl Eq for Queued {}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Queued {
-    // Reversed: `BinaryHeap` pops its largest element.
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.rank(self)
+    fn pop(&mut self) -> Option<Cube> {
+        let (heap, boxes) = (&mut self.heap, &self.boxes);
+        let top = *heap.first()?;
+        let last = heap.pop()?;
+        let n = heap.len();
+        if n > 0 {
+            let mut i = 0;
+            loop {
+                let mut child = 2 * i + 1;
+                if child >= n {
+                    break;
+                }
+                if child + 1 < n
+                    && before(&boxes[heap[child + 1] as usize], &boxes[heap[child] as usize])
+                {
+                    child += 1;
+                }
+                if !before(&boxes[heap[child] as usize], &boxes[last as usize]) {
+                    break;
+                }
+                heap[i] = heap[child];
+                i = child;
+            }
+            heap[i] = last;
+        }
+        Some(boxes[top as usize])
     }
 }
 
@@ -186,8 +225,17 @@ impl Ord for Queued {
 /// searches open a few dozen boxes and then never grow the buffers.
 const QUEUE_CAPACITY: usize = 256;
 
+#[inline(always)]
 fn straddles(f: &[f64; 8]) -> bool {
-    f.iter().any(|&v| v <= 0.0) && f.iter().any(|&v| v >= 0.0)
+    // The least and largest value (NaN ignored, as by the comparisons it
+    // stands for): branch-free, where the early exits of `any` and its
+    // sixteen tests cost twice as much.
+    let (mut least, mut most) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &v in f {
+        least = if v < least { v } else { least };
+        most = if v > most { v } else { most };
+    }
+    least <= 0.0 && most >= 0.0
 }
 
 /// Decides the interior sample `p` (local coordinates of the cell) by the
@@ -224,40 +272,52 @@ pub fn nearest_within<F: ReconstructionFilter>(
     if root.f.iter().any(|v| !v.is_finite()) || !straddles(&root.f) {
         return Test::Failed;
     }
-    // The open boxes, nearest first (a heap: searches that open thousands
-    // of boxes, in cells where S_K folds tightly, stay n log n), and the
-    // corner values of every box queued.
-    let mut open = BinaryHeap::with_capacity(QUEUE_CAPACITY);
-    let mut values = Vec::with_capacity(QUEUE_CAPACITY);
-    let queue = |open: &mut BinaryHeap<Queued>, values: &mut Vec<[f64; 8]>, c: &Cube| {
-        open.push(Queued {
-            lo: c.lo,
-            size: c.size,
-            lower: c.lower,
-            values: values.len() as u32,
-        });
-        values.push(c.f);
-    };
-    queue(&mut open, &mut values, &root);
+    let mut open = QUEUE.with(|q| q.take()).unwrap_or_else(|| Queue {
+        heap: Vec::with_capacity(QUEUE_CAPACITY),
+        boxes: Vec::with_capacity(QUEUE_CAPACITY),
+    });
+    open.clear();
+    let found = search::<F>(cell, iso, p, epsilon, margin, root, &mut open);
+    // Kept unless a search in a tight fold grew it large.
+    if open.boxes.capacity() <= 16 * QUEUE_CAPACITY {
+        QUEUE.with(|q| q.set(Some(open)));
+    }
+    found
+}
+
+thread_local! {
+    /// The last search's queue, for the next one on this thread:
+    /// allocating it afresh cost as much as a few boxes.
+    static QUEUE: Cell<Option<Queue>> = const { Cell::new(None) };
+}
+
+/// The branch and bound of [`nearest_within`] from its `root` box, on the
+/// empty queue `open`.
+#[allow(clippy::too_many_arguments)]
+fn search<F: ReconstructionFilter>(
+    cell: &F::Cell,
+    iso: f64,
+    p: DVec3,
+    epsilon: f64,
+    margin: f64,
+    root: Cube,
+    open: &mut Queue,
+) -> Test {
+    let f = |x: DVec3| F::value(cell, x) - iso;
+    open.push(root);
     for _ in 0..MAX_BOXES {
-        let Some(q) = open.pop() else {
+        let Some(b) = open.pop() else {
             break;
-        };
-        let b = Cube {
-            lo: q.lo,
-            size: q.size,
-            f: values[q.values as usize],
-            lower: q.lower,
         };
         if b.lower > epsilon {
             if b.size <= COARSE {
-                return match edge_root(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q, margin))
+                return match edge_root::<F>(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q, margin))
                 {
                     Some(x) => Test::Far(x),
                     None => Test::Failed,
                 };
             }
-        } else if let Some(q) = edge_root(&f, &b, p) {
+        } else if let Some(q) = edge_root::<F>(&f, &b, p) {
             let d = (q - p).length();
             if d <= epsilon {
                 return Test::Near;
@@ -287,22 +347,36 @@ pub fn nearest_within<F: ReconstructionFilter>(
                 };
             }
         }
-        for (child, at) in CHILD_GRID.iter().enumerate() {
-            let o = CORNERS[child];
-            let lo = b.lo + DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64) * half;
-            let mut c = Cube {
-                lo,
-                size: half,
-                f: [0.0; 8],
-                lower: Cube::distance(lo, half, p),
-            };
-            for k in 0..8 {
-                c.f[k] = grid[at[k] as usize];
-            }
-            if straddles(&c.f) {
-                queue(&mut open, &mut values, &c);
-            }
+        // The children in order, unrolled with constant indices (a loop
+        // over the table read them from memory, at twice the cost); most
+        // do not straddle and are placed only if they do.
+        macro_rules! children {
+            ($($child:literal)*) => {$({
+                const AT: [u8; 8] = CHILD_GRID[$child];
+                const O: [u8; 3] = CORNERS[$child];
+                let f = [
+                    grid[AT[0] as usize],
+                    grid[AT[1] as usize],
+                    grid[AT[2] as usize],
+                    grid[AT[3] as usize],
+                    grid[AT[4] as usize],
+                    grid[AT[5] as usize],
+                    grid[AT[6] as usize],
+                    grid[AT[7] as usize],
+                ];
+                if straddles(&f) {
+                    let lo = b.lo + DVec3::new(O[0] as f64, O[1] as f64, O[2] as f64) * half;
+                    let c = Cube {
+                        lo,
+                        size: half,
+                        f,
+                        lower: Cube::distance(lo, half, p),
+                    };
+                    open.push(c);
+                }
+            })*};
         }
+        children!(0 1 2 3 4 5 6 7);
     }
     Test::Failed
 }
@@ -388,7 +462,11 @@ fn polish<F: ReconstructionFilter>(
 
 /// The root of `f` nearest to `p` on the edges of box `b` whose ends
 /// differ in sign (or are zero).
-fn edge_root(f: &impl Fn(DVec3) -> f64, b: &Cube, p: DVec3) -> Option<DVec3> {
+fn edge_root<F: ReconstructionFilter>(
+    f: &impl Fn(DVec3) -> f64,
+    b: &Cube,
+    p: DVec3,
+) -> Option<DVec3> {
     let mut best: Option<(f64, DVec3)> = None;
     for [i, j] in EDGES.map(|e| e.map(usize::from)) {
         let (fa, fb) = (b.f[i], b.f[j]);
@@ -396,7 +474,20 @@ fn edge_root(f: &impl Fn(DVec3) -> f64, b: &Cube, p: DVec3) -> Option<DVec3> {
             continue;
         }
         let (start, end) = (b.corner(i), b.corner(j));
-        let t = solve(&|t: f64| f(start + (end - start) * t), 0.0, fa, 1.0, fb);
+        let t = if F::MULTILINEAR {
+            // Linear along an edge: the root is the secant's, the first
+            // step of `solve` (where it stops but for rounding), without
+            // evaluating the filter there.
+            if fa == 0.0 {
+                0.0
+            } else if fb == 0.0 {
+                1.0
+            } else {
+                -fa / (fb - fa)
+            }
+        } else {
+            solve(&|t: f64| f(start + (end - start) * t), 0.0, fa, 1.0, fb)
+        };
         let q = start + (end - start) * t;
         let d = (q - p).length_squared();
         if best.map_or(true, |(bd, _)| d < bd) {
