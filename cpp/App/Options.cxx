@@ -42,7 +42,10 @@ double ParseDouble(const std::string& option, const std::string& text)
   char* end = nullptr;
   errno = 0;
   double value = std::strtod(begin, &end);
-  if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(value))
+  // ERANGE also flags underflow (1e-310 is read as a subnormal or 0, a
+  // usable value): only overflow, read as +-HUGE_VAL, is refused.
+  const bool overflow = errno == ERANGE && std::fabs(value) >= HUGE_VAL;
+  if (text.empty() || end != begin + text.size() || overflow || !std::isfinite(value))
   {
     Usage(option + ": '" + text + "' is not a finite number");
   }

@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <thread>
 
 #include <unistd.h>
 
@@ -261,7 +262,15 @@ int main(int argc, char* argv[])
     }
     if (o.SMP && o.Threads > 0)
     {
-      vtkSMPTools::Initialize(o.Threads);
+      // TBB warns on stderr (which -q keeps for errors) when asked for
+      // more threads than the machine has: ask for at most that many.
+      int threads = o.Threads;
+      unsigned cores = std::thread::hardware_concurrency();
+      if (cores > 0 && static_cast<unsigned>(threads) > cores)
+      {
+        threads = static_cast<int>(cores);
+      }
+      vtkSMPTools::Initialize(threads);
     }
 
     // Outputs first: a bad path should not cost an extraction.

@@ -672,6 +672,17 @@ def error_measure_options():
 
 
 @check
+def quiet_smp_threads_and_tiny_numbers():
+    # More vtkSMPTools threads than cores: TBB's warning would break -q.
+    ok("--sample", "ml", "--smp", "--threads", str(8 * (os.cpu_count() or 1)), "-q")
+    # Underflow is a number (strtod flags it ERANGE like overflow).
+    r = ok("--sample", "ml", "--epsilon", "1e-310", "--max-level", "1")
+    expect(table_value(r.stdout, "output triangles") > 0, "no triangles")
+    expect_error(["--sample", "ml", "--epsilon", "1e999"], "not a finite number", status=2)
+    expect_error(["--sample", "ml", "-v", "-1e400"], "not a finite number", status=2)
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
