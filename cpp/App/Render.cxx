@@ -188,8 +188,9 @@ void FrameCamera(vtkRenderer* renderer, vtkPolyData* pd, vtkImageData* volume)
   camera->Zoom(1.1);
 }
 
-// The window is rendered off screen and saved through a temporary file.
-void SavePNG(vtkRenderWindow* window, const std::string& png)
+// The window is rendered off screen and saved into file, the temporary
+// of png.
+void SavePNG(vtkRenderWindow* window, const std::string& png, const std::string& file)
 {
   window->Render();
   vtkNew<vtkWindowToImageFilter> grab;
@@ -198,19 +199,21 @@ void SavePNG(vtkRenderWindow* window, const std::string& png)
   grab->ReadFrontBufferOff();
   grab->Update();
   TakeVTKErrors();
-  std::string tmp = TemporaryPathFor(png);
   vtkNew<vtkPNGWriter> writer;
   writer->SetInputConnection(grab->GetOutputPort());
-  writer->SetFileName(tmp.c_str());
-  writer->Write();
-  std::vector<std::string> errors = TakeVTKErrors();
-  if (writer->GetErrorCode() != 0 || !errors.empty() || !IsRegularFile(tmp))
+  writer->SetFileName(file.c_str());
   {
-    RemoveFile(tmp);
+    // libpng reports a failed write on stderr as well as to VTK.
+    StderrSilenced silenced;
+    writer->Write();
+  }
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (writer->GetErrorCode() != 0 || !errors.empty() || !IsRegularFile(file))
+  {
+    RemoveFile(file);
     throw Error("cannot write picture '" + png + "'" +
       (errors.empty() ? std::string() : ": " + errors.front()));
   }
-  CommitFile(tmp, png);
 }
 
 // Each triangle split into n x n triangles (points not shared between
@@ -377,7 +380,8 @@ void ComputeDistance(Panel& panel)
   panel.Distance = result;
 }
 
-void RenderCompare(const std::vector<Panel>& panels, const std::string& png)
+void RenderCompare(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file)
 {
   const int rows = static_cast<int>(panels.size());
   const int width = 1600;
@@ -413,10 +417,11 @@ void RenderCompare(const std::vector<Panel>& panels, const std::string& png)
     window->AddRenderer(left);
     window->AddRenderer(right);
   }
-  SavePNG(window, png);
+  SavePNG(window, png, file);
 }
 
-void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
+void RenderDistance(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file)
 {
   const int cols = static_cast<int>(panels.size());
   const int width = cols == 1 ? 1000 : 1800;
@@ -492,7 +497,7 @@ void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
       0.5, 0.93, 16, 1, true);
     window->AddRenderer(renderer);
   }
-  SavePNG(window, png);
+  SavePNG(window, png, file);
 }
 
 }

@@ -38,12 +38,15 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
 void ComputeDistance(Panel& panel);
 
 // Renders MC (left) beside the refined surface (right), one row per
-// panel, into a PNG (temporary file + rename). Throws pmcapp::Error.
-void RenderCompare(const std::vector<Panel>& panels, const std::string& png);
+// panel, into file, the temporary of the PNG png (PendingFiles::Add).
+// Throws pmcapp::Error.
+void RenderCompare(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file);
 
 // Renders each panel's MC surface coloured by Distance, with a colour bar,
-// into a PNG. Throws pmcapp::Error.
-void RenderDistance(const std::vector<Panel>& panels, const std::string& png);
+// into file, the temporary of the PNG png. Throws pmcapp::Error.
+void RenderDistance(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file);
 
 }
 

@@ -132,6 +132,20 @@ std::string ValuesText(const std::vector<double>& values)
   return text;
 }
 
+// The samples to generate: none for an input file.
+std::vector<std::string> SampleList(const pmcapp::Options& o)
+{
+  if (!o.Input.empty())
+  {
+    return {};
+  }
+  if (o.Sample.empty() || o.Sample == "all")
+  {
+    return pmcapp::SampleNames();
+  }
+  return { o.Sample };
+}
+
 std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
 {
   std::vector<DataSet> sets;
@@ -161,16 +175,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
   }
   else
   {
-    std::vector<std::string> names;
-    if (o.Sample.empty() || o.Sample == "all")
-    {
-      names = pmcapp::SampleNames();
-    }
-    else
-    {
-      names.push_back(o.Sample);
-    }
-    for (const auto& name : names)
+    for (const auto& name : SampleList(o))
     {
       DataSet d;
       Clock::time_point start = Clock::now();
@@ -273,10 +278,29 @@ int main(int argc, char* argv[])
       vtkSMPTools::Initialize(threads);
     }
 
-    // Outputs first: a bad path should not cost an extraction.
+    // Outputs first: a bad path should not cost an extraction. With
+    // several volumes the paths written are the per-volume ones (o.Output
+    // itself is never written then), so those are the ones checked.
+    const std::vector<std::string> samples = SampleList(o);
+    const bool several = samples.size() > 1;
+    auto pathFor = [several](const std::string& path, const std::string& name) {
+      return several ? pmcapp::WithSuffix(path, name) : path;
+    };
+    const std::vector<std::string> names = several ? samples : std::vector<std::string>{ "" };
     if (!o.Output.empty())
     {
-      pmcapp::CheckSurfaceOutput(o.Output);
+      pmcapp::CheckSurfaceFormat(o.Output);
+      for (const auto& name : names)
+      {
+        pmcapp::CheckWritable(pathFor(o.Output, name), "surface");
+      }
+    }
+    if (!o.WriteVolume.empty())
+    {
+      for (const auto& name : names)
+      {
+        pmcapp::CheckWritable(pathFor(o.WriteVolume, name), "volume");
+      }
     }
     if (!o.Compare.empty())
     {
@@ -286,10 +310,6 @@ int main(int argc, char* argv[])
     {
       pmcapp::CheckWritable(o.Distance, "picture");
     }
-    if (!o.WriteVolume.empty())
-    {
-      pmcapp::CheckWritable(o.WriteVolume, "volume");
-    }
     const bool pictures = !o.Compare.empty() || !o.Distance.empty();
     if (pictures)
     {
@@ -297,7 +317,8 @@ int main(int argc, char* argv[])
     }
 
     std::vector<DataSet> sets = LoadDataSets(o);
-    const bool several = sets.size() > 1;
+    // Every file of the run is committed at its end, after the pictures.
+    pmcapp::PendingFiles files;
 
     std::string refinedLabel = o.Epsilon > 0.0 && o.MaxLevel > 0
       ? "PreciseMC (eps " + pmcapp::General(o.Epsilon) + ", level <= " +
@@ -308,8 +329,7 @@ int main(int argc, char* argv[])
 
     for (auto& d : sets)
     {
-      std::string output = o.Output.empty() ? std::string()
-        : several ? pmcapp::WithSuffix(o.Output, d.Name) : o.Output;
+      std::string output = o.Output.empty() ? std::string() : pathFor(o.Output, d.Name);
 
       vtkNew<vtkPreciseMarchingCubes> filter;
       filter->SetInputData(d.Volume);
@@ -376,8 +396,8 @@ int main(int argc, char* argv[])
       }
       if (!o.WriteVolume.empty())
       {
-        std::string path = several ? pmcapp::WithSuffix(o.WriteVolume, d.Name) : o.WriteVolume;
-        std::string tmp = pmcapp::TemporaryPathFor(path);
+        std::string path = pathFor(o.WriteVolume, d.Name);
+        std::string tmp = files.Add(path);
         vtkNew<vtkXMLImageDataWriter> writer;
         writer->SetFileName(tmp.c_str());
         writer->SetInputData(d.Volume);
@@ -385,15 +405,13 @@ int main(int argc, char* argv[])
         writer->EncodeAppendedDataOff();
         if (!writer->Write())
         {
-          pmcapp::RemoveFile(tmp);
           throw Error("cannot write the volume " + path);
         }
-        pmcapp::CommitFile(tmp, path);
       }
       if (!output.empty())
       {
         start = Clock::now();
-        pmcapp::WriteSurface(panel.Refined, output);
+        pmcapp::WriteSurface(panel.Refined, output, files.Add(output));
         writeSeconds = SecondsSince(start);
       }
 
@@ -489,25 +507,25 @@ int main(int argc, char* argv[])
       panels.push_back(panel);
     }
 
+    std::string pictureLines;
     if (!o.Compare.empty())
     {
       Clock::time_point start = Clock::now();
-      pmcapp::RenderCompare(panels, o.Compare);
-      if (!o.Quiet)
-      {
-        std::cout << "compare picture: " << o.Compare << " (" << Seconds(SecondsSince(start))
-                  << ")" << std::endl;
-      }
+      pmcapp::RenderCompare(panels, o.Compare, files.Add(o.Compare));
+      pictureLines +=
+        "compare picture: " + o.Compare + " (" + Seconds(SecondsSince(start)) + ")\n";
     }
     if (!o.Distance.empty())
     {
       Clock::time_point start = Clock::now();
-      pmcapp::RenderDistance(panels, o.Distance);
-      if (!o.Quiet)
-      {
-        std::cout << "distance picture: " << o.Distance << " (" << Seconds(SecondsSince(start))
-                  << ")" << std::endl;
-      }
+      pmcapp::RenderDistance(panels, o.Distance, files.Add(o.Distance));
+      pictureLines +=
+        "distance picture: " + o.Distance + " (" + Seconds(SecondsSince(start)) + ")\n";
+    }
+    files.Commit();
+    if (!o.Quiet)
+    {
+      std::cout << pictureLines << std::flush;
     }
     return 0;
   }

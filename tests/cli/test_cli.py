@@ -683,6 +683,52 @@ def quiet_smp_threads_and_tiny_numbers():
 
 
 @check
+def late_failure_commits_nothing():
+    """A picture failing after the surfaces and volumes are written (here a
+    file size limit the picture exceeds) leaves none of them behind."""
+    d = fresh_dir("late-failure")
+    out, vti, c = (os.path.join(d, n) for n in ("t.vtp", "t.vti", "t.png"))
+    # A limit of 100 kB: the surface (plain Marching Cubes, about 30 kB) and
+    # the volume (3 kB) are written, the picture (about 150 kB) fails with
+    # EFBIG (SIGXFSZ ignored).
+    script = 'trap "" XFSZ; ulimit -f 100; exec "$0" "$@"'
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    r = subprocess.run(["/bin/sh", "-c", script, TOOL, "--sample", "tube", "--epsilon", "0",
+                        "--normals", "none", "-o", out, "--write-volume", vti, "--compare", c],
+                       capture_output=True, text=True, env=environment, timeout=TIMEOUT)
+    expect(r.returncode == 1, f"exit status {r.returncode}, stderr {r.stderr!r}")
+    lines = r.stderr.splitlines()
+    expect(len(lines) == 1 and lines[0].startswith("precisemc: error: cannot write picture"),
+           f"stderr: {r.stderr!r}")
+    expect(os.listdir(d) == [], f"left behind: {os.listdir(d)}")
+
+
+@check
+def sample_all_checks_the_paths_written():
+    d = fresh_dir("sample-all-paths")
+    base = os.path.join(d, "s.vtp")
+    # The base name is never written with several samples: it may be a
+    # directory.
+    os.makedirs(base)
+    ok("--sample", "all", "-o", base, "--epsilon", "0")
+    expect(sorted(os.listdir(d)) == ["s-atoms.vtp", "s-ml.vtp", "s-tube.vtp", "s.vtp"],
+           os.listdir(d))
+    for n in ("tube", "atoms", "ml"):
+        os.remove(os.path.join(d, f"s-{n}.vtp"))
+    # A per-sample path that cannot be written fails before any work, and
+    # the samples before it leave nothing.
+    os.makedirs(os.path.join(d, "s-ml.vtp"))
+    expect_error(["--sample", "all", "-o", base], "s-ml.vtp': it is a directory",
+                 outputs=[os.path.join(d, "s-tube.vtp"), os.path.join(d, "s-atoms.vtp")])
+    vol = os.path.join(d, "v.vti")
+    os.makedirs(os.path.join(d, "v-atoms.vti"))
+    expect_error(["--sample", "all", "--write-volume", vol], "v-atoms.vti': it is a directory",
+                 outputs=[os.path.join(d, "v-tube.vti")])
+    expect(sorted(os.listdir(d)) == ["s-ml.vtp", "s.vtp", "v-atoms.vti"], os.listdir(d))
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
