@@ -728,6 +728,42 @@ def sample_all_checks_the_paths_written():
     expect(sorted(os.listdir(d)) == ["s-ml.vtp", "s.vtp", "v-atoms.vti"], os.listdir(d))
 
 
+def unused_display():
+    """A display number no X server listens on."""
+    n = 987
+    while os.path.exists(f"/tmp/.X11-unix/X{n}") or os.path.exists(f"/tmp/.X{n}-lock"):
+        n += 1
+    return f":{n}"
+
+
+@check
+def pictures_with_an_unusable_display():
+    d = fresh_dir("bad-display")
+    out, c = os.path.join(d, "x.vtp"), os.path.join(d, "x.png")
+    bad = unused_display()
+    # VTK abort()ed on it after the surface was written: now the tool sees
+    # it cannot open it and renders on its private Xvfb instead.
+    ok("--sample", "tube", "-o", out, "--compare", c, env={"DISPLAY": bad})
+    expect(png_size(c) == (1600, 800), "size")
+    expect(read_surface(out).GetNumberOfPolys() > 0, "no surface")
+    for f in (out, c):
+        os.remove(f)
+    # Without Xvfb: one error line before any work.
+    expect_error(["--sample", "tube", "-o", out, "--compare", c], f"cannot open the X display '{bad}'",
+                 outputs=[out, c], status=1, env={"DISPLAY": bad, "PATH": "/nonexistent"})
+    # A display without GLX (an Xvfb started with GLX disabled): refused too.
+    xvfb = shutil.which("Xvfb")
+    expect(xvfb, "Xvfb is not installed")
+    bindir = os.path.join(d, "bin")
+    os.makedirs(bindir)
+    with open(os.path.join(bindir, "Xvfb"), "w") as f:
+        f.write(f'#!/bin/sh\nexec {xvfb} "$@" -extension GLX\n')
+    os.chmod(os.path.join(bindir, "Xvfb"), 0o755)
+    expect_error(["--sample", "tube", "-o", out, "--compare", c], "has no GLX",
+                 outputs=[out, c], status=1, env={"PATH": bindir})
+    expect(sorted(os.listdir(d)) == ["bin"], f"left behind: {os.listdir(d)}")
+
+
 @check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
