@@ -18,10 +18,29 @@
 #include "vtkSmartPointer.h"
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace pmcapp
 {
+
+namespace
+{
+
+// The library's message of its last failure on this thread, "" if none.
+std::string LastLibraryError()
+{
+  size_t size = pmc_last_error_message(nullptr, 0);
+  if (size == 0)
+  {
+    return std::string();
+  }
+  std::vector<char> text(size + 1, '\0');
+  pmc_last_error_message(text.data(), text.size());
+  return std::string(text.data());
+}
+
+}
 
 Distance MeasureDistance(
   vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter)
@@ -136,8 +155,9 @@ Distance MeasureDistance(
     tris.data(), static_cast<uint64_t>(tris.size() / 3), density, &out);
   if (status != PMC_STATUS_OK)
   {
+    std::string why = LastLibraryError();
     throw Error(std::string("--measure: pmc_measure_distance failed: ") +
-      pmc_status_string(status));
+      pmc_status_string(status) + (why.empty() ? std::string() : " (" + why + ")"));
   }
   result.Max = out.max;
   result.Mean = out.mean;

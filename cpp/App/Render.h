@@ -19,6 +19,7 @@ struct Panel
   std::string Name;                     // "tube", or the input file name
   vtkSmartPointer<vtkImageData> Volume; // the input volume
   vtkSmartPointer<vtkPolyData> MC;      // vtkMarchingCubes's surface (world coordinates)
+  unsigned long long MCDropped = 0;     // its triangles dropped: non-finite points
   vtkSmartPointer<vtkPolyData> Refined; // PreciseMC's surface (world coordinates)
   std::string RefinedLabel;             // e.g. "PreciseMC (eps 0.01, level <= 5)"
 
@@ -28,10 +29,13 @@ struct Panel
   double MeanDistance = 0.0;
 };
 
-// vtkMarchingCubes on the volume at the given values, in the same world
-// coordinates as vtkPreciseMarchingCubes (direction matrix applied).
-vtkSmartPointer<vtkPolyData> RunMarchingCubes(
-  vtkImageData* volume, const std::vector<double>& values);
+// vtkMarchingCubes on component 0 of the volume's scalars (the one
+// PreciseMC contours) at the given values, in the same world coordinates
+// as vtkPreciseMarchingCubes (direction matrix applied). Its triangles
+// with a non-finite point (next to NaN samples) are dropped, and counted
+// in *dropped when given. Throws pmcapp::Error on a VTK error.
+vtkSmartPointer<vtkPolyData> RunMarchingCubes(vtkImageData* volume,
+  const std::vector<double>& values, unsigned long long* dropped = nullptr);
 
 // Distance of every MC point to the refined surface, in cell units (index
 // space of the volume): fills panel.Distance, MaxDistance, MeanDistance.

@@ -234,6 +234,21 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   f->SetComputeLevels(levels);
 }
 
+// vtkMarchingCubes's surface of the values (pmcapp::RunMarchingCubes),
+// its errors naming the volume.
+vtkSmartPointer<vtkPolyData> Baseline(
+  const DataSet& d, const std::vector<double>& values, unsigned long long* dropped = nullptr)
+{
+  try
+  {
+    return pmcapp::RunMarchingCubes(d.Volume, values, dropped);
+  }
+  catch (const Error& e)
+  {
+    throw Error(d.Name + ": " + e.what(), e.Status);
+  }
+}
+
 std::string Row(const std::string& key, const std::string& value)
 {
   std::string padded = "  " + key;
@@ -366,7 +381,7 @@ int main(int argc, char* argv[])
       if (pictures || o.Measure)
       {
         start = Clock::now();
-        panel.MC = pmcapp::RunMarchingCubes(d.Volume, d.Values);
+        panel.MC = Baseline(d, d.Values, &panel.MCDropped);
         mcSeconds = SecondsSince(start);
       }
       // --measure: one isovalue at a time (vtkMarchingCubes is rerun on its
@@ -380,7 +395,7 @@ int main(int argc, char* argv[])
         for (double v : d.Values)
         {
           vtkSmartPointer<vtkPolyData> mcSurface = d.Values.size() > 1
-            ? pmcapp::RunMarchingCubes(d.Volume, std::vector<double>{ v })
+            ? Baseline(d, std::vector<double>{ v })
             : panel.MC;
           mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density, false));
           refinedDistances.push_back(pmcapp::MeasureDistance(
@@ -458,7 +473,16 @@ int main(int argc, char* argv[])
             pmcapp::Grouped(filter->GetNumberOfFacesAboveEpsilon()) +
               " triangles at the level cap");
         }
-        if (!o.Distance.empty())
+        if (panel.MCDropped > 0)
+        {
+          table << Row("MC non-finite", pmcapp::Grouped(panel.MCDropped) +
+              " vtkMarchingCubes triangles at NaN samples dropped (not shown, not measured)");
+        }
+        if (!o.Distance.empty() && panel.MC->GetNumberOfPolys() == 0)
+        {
+          table << Row("MC to refined", "no vtkMarchingCubes triangles to measure");
+        }
+        else if (!o.Distance.empty())
         {
           table << Row("MC to refined", "max " + pmcapp::Fixed(panel.MaxDistance, 3) + ", mean " +
               pmcapp::Fixed(panel.MeanDistance, 3) + " cells");

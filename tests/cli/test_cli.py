@@ -764,6 +764,64 @@ def pictures_with_an_unusable_display():
     expect(sorted(os.listdir(d)) == ["bin"], f"left behind: {os.listdir(d)}")
 
 
+def write_vti(image, path):
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(image)
+    w.Write()
+    return path
+
+
+@check
+def multi_component_input_has_a_baseline():
+    """vtkMarchingCubes takes single-component scalars: it is given
+    component 0, the one PreciseMC contours, so the baseline of a
+    3-component volume is that of its component 0 alone."""
+    d = fresh_dir("multi-component")
+    plain = write_vti(blob_image(), os.path.join(d, "plain.vti"))
+    image = blob_image()
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    three = np.stack([v, np.full_like(v, 7.0), -v], axis=1)
+    arr = numpy_to_vtk(three, deep=True)
+    arr.SetName("vector")
+    image.GetPointData().SetScalars(arr)
+    vec = write_vti(image, os.path.join(d, "vec.vti"))
+    results = []
+    for path in (plain, vec):
+        r = ok(path, "-v", "40", "--measure")
+        results.append((measured(r.stdout, "S_K distance MC"),
+                        measured(r.stdout, "S_K distance out")))
+    expect("component 0 of 3" in r.stdout, "the table does not name the component")
+    expect(results[0] == results[1], f"component 0 measures differently: {results}")
+    expect(results[1][0][0][2] > 0, "no vtkMarchingCubes baseline measured")
+    c = os.path.join(d, "c.png")
+    r = ok(vec, "-v", "40", "--compare", c, "--distance", os.path.join(d, "d.png"))
+    expect(png_size(c) == (1600, 800), "compare size")
+    m = re.search(r"MC to refined\s+max ([0-9.]+), mean ([0-9.]+)", r.stdout)
+    expect(m and float(m.group(1)) > 0, f"no distance of the baseline:\n{r.stdout}")
+
+
+@check
+def nan_samples_in_the_baseline():
+    """vtkMarchingCubes gives NaN points next to NaN samples: its triangles
+    using them are dropped (and counted) before measuring and the distance."""
+    d = fresh_dir("nan")
+    image = blob_image()
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    v[::5] = np.nan
+    image.GetPointData().GetScalars().Modified()
+    path = write_vti(image, os.path.join(d, "nan.vti"))
+    r = ok(path, "-v", "40", "--measure")
+    for key in ("S_K distance MC", "S_K distance out"):
+        (mx, mean, points), = measured(r.stdout, key)
+        expect(points > 0 and math.isfinite(mx) and math.isfinite(mean), f"{key}: {r.stdout}")
+    expect(re.search(r"^  MC non-finite\s+[0-9 ]+ vtkMarchingCubes triangles", r.stdout, re.M),
+           f"the dropped triangles are not reported:\n{r.stdout}")
+    r = ok(path, "-v", "40", "--distance", os.path.join(d, "d.png"))
+    m = re.search(r"MC to refined\s+max ([0-9.]+), mean ([0-9.]+) cells", r.stdout)
+    expect(m, f"no finite distance row:\n{r.stdout}")
+
+
 @check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
