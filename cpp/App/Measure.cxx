@@ -17,7 +17,6 @@
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 
-#include <cmath>
 #include <string>
 #include <vector>
 
@@ -42,8 +41,7 @@ std::string LastLibraryError()
 
 }
 
-Distance MeasureDistance(
-  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter)
+Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surface, unsigned density)
 {
   vtkDataArray* scalars = volume->GetPointData()->GetScalars();
   if (!scalars)
@@ -115,7 +113,6 @@ Distance MeasureDistance(
     }
   }
 
-  vtkDataArray* pointScalars = scalarFilter ? surface->GetPointData()->GetScalars() : nullptr;
   std::vector<int64_t> tris;
   tris.reserve(3 * static_cast<size_t>(polys->GetNumberOfCells()));
   auto it = vtk::TakeSmartPointer(polys->NewIterator());
@@ -127,14 +124,6 @@ Distance MeasureDistance(
     if (n < 3)
     {
       continue;
-    }
-    if (pointScalars)
-    {
-      double s = pointScalars->GetComponent(ids[0], 0);
-      if (std::fabs(s - value) > 1e-6 * (1.0 + std::fabs(value)))
-      {
-        continue;
-      }
     }
     // Polygons are fanned into triangles (the contour filters give
     // triangles only).

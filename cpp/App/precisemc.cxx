@@ -249,6 +249,29 @@ vtkSmartPointer<vtkPolyData> Baseline(
   }
 }
 
+// PreciseMC's surface of one isovalue alone, for --measure. The surfaces of
+// several isovalues cannot be told apart in the filter's output: its point
+// scalars are in the input's type (on uint8 data 50.5 is stored as 50).
+vtkSmartPointer<vtkPolyData> ExtractOne(const DataSet& d, double value, const pmcapp::Options& o)
+{
+  vtkNew<vtkPreciseMarchingCubes> filter;
+  filter->SetInputData(d.Volume);
+  filter->SetValue(0, value);
+  Configure(filter, o, false);
+  filter->SetComputeNormals(false);
+  pmcapp::TakeVTKErrors();
+  filter->Update();
+  std::vector<std::string> errors = pmcapp::TakeVTKErrors();
+  if (!errors.empty())
+  {
+    throw Error(d.Name + ": " + errors.front());
+  }
+  pmcapp::TakeVTKWarnings();
+  auto out = vtkSmartPointer<vtkPolyData>::New();
+  out->ShallowCopy(filter->GetOutput());
+  return out;
+}
+
 std::string Row(const std::string& key, const std::string& value)
 {
   std::string padded = "  " + key;
@@ -384,9 +407,8 @@ int main(int argc, char* argv[])
         panel.MC = Baseline(d, d.Values, &panel.MCDropped);
         mcSeconds = SecondsSince(start);
       }
-      // --measure: one isovalue at a time (vtkMarchingCubes is rerun on its
-      // own for each value when there are several; PreciseMC's appended
-      // surfaces are told apart by their point scalars, the isovalue).
+      // --measure: one isovalue at a time; with several, both surfaces are
+      // extracted again for each value alone.
       std::vector<pmcapp::Distance> mcDistances, refinedDistances;
       if (o.Measure)
       {
@@ -394,12 +416,14 @@ int main(int argc, char* argv[])
         const unsigned density = static_cast<unsigned>(o.MeasureDensity < 0 ? 3 : o.MeasureDensity);
         for (double v : d.Values)
         {
-          vtkSmartPointer<vtkPolyData> mcSurface = d.Values.size() > 1
-            ? Baseline(d, std::vector<double>{ v })
-            : panel.MC;
-          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density, false));
-          refinedDistances.push_back(pmcapp::MeasureDistance(
-            d.Volume, v, panel.Refined, density, d.Values.size() > 1));
+          const bool alone = d.Values.size() == 1;
+          vtkSmartPointer<vtkPolyData> mcSurface =
+            alone ? panel.MC : Baseline(d, std::vector<double>{ v });
+          vtkSmartPointer<vtkPolyData> refinedSurface =
+            alone ? panel.Refined : ExtractOne(d, v, o);
+          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density));
+          refinedDistances.push_back(
+            pmcapp::MeasureDistance(d.Volume, v, refinedSurface, density));
         }
         measureSeconds = SecondsSince(start);
       }
@@ -491,6 +515,12 @@ int main(int argc, char* argv[])
         {
           std::string which = d.Values.size() > 1 ? " (v " + pmcapp::General(d.Values[i]) + ")" : "";
           auto text = [](const pmcapp::Distance& m, const std::string& who) {
+            // An empty surface has no distance: say so rather than print
+            // zeros that read like a perfect result.
+            if (m.Triangles == 0 || m.Samples == 0)
+            {
+              return "no triangles to measure (" + who + ")";
+            }
             std::string t = "max " + pmcapp::Fixed(m.Max, 5) + ", mean " +
               pmcapp::Fixed(m.Mean, 5) + " cells (" + who + ", " + pmcapp::Grouped(m.Samples) +
               " points";

@@ -823,6 +823,30 @@ def nan_samples_in_the_baseline():
 
 
 @check
+def measure_several_isovalues_on_integer_data():
+    """On uint8 data the filter stores the isovalue 50.5 as the point scalar
+    50 (the input's type, as VTK's contour filters do): each isovalue's
+    surface is still measured, not an empty selection of it."""
+    d = fresh_dir("measure-uint8")
+    r = ok("--sample", "tube", "--measure", "--measure-density", "1", "-v", "50.5", "-v", "100.5")
+    mc = measured(r.stdout, "S_K distance MC")
+    out = measured(r.stdout, "S_K distance out")
+    expect(len(mc) == 2 and len(out) == 2, "one row pair per isovalue expected")
+    for m in mc + out:
+        expect(m[2] > 0, f"a measurement of no points: {m}\n{r.stdout}")
+        expect(m[0] < 1e-3, f"vertex distance {m[0]} not ~0")
+    expect(sum(p for _, _, p in out) == 3 * table_value(r.stdout, "output triangles"),
+           "the refined triangles of both isovalues are measured once each")
+    # What the README says of the .vtp point scalars: the input's type.
+    vtp = os.path.join(d, "tube.vtp")
+    ok("--sample", "tube", "-v", "50.5", "-o", vtp)
+    scalars = read_surface(vtp).GetPointData().GetScalars()
+    expect(scalars is not None and scalars.GetDataTypeAsString() == "unsigned char",
+           "the point scalars are not in the input's type")
+    expect(scalars.GetRange() == (50.0, 50.0), f"point scalars {scalars.GetRange()}, expected 50")
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
