@@ -12,6 +12,7 @@
 #include <cstring>
 #include <sstream>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -143,6 +144,32 @@ std::vector<std::string> TakeVTKWarnings()
   return out;
 }
 
+StderrSilenced::StderrSilenced()
+{
+  std::fflush(stderr);
+  int devnull = open("/dev/null", O_WRONLY);
+  if (devnull < 0)
+  {
+    return;
+  }
+  this->Saved = dup(STDERR_FILENO);
+  if (this->Saved >= 0)
+  {
+    dup2(devnull, STDERR_FILENO);
+  }
+  close(devnull);
+}
+
+StderrSilenced::~StderrSilenced()
+{
+  if (this->Saved >= 0)
+  {
+    std::fflush(stderr);
+    dup2(this->Saved, STDERR_FILENO);
+    close(this->Saved);
+  }
+}
+
 std::string Extension(const std::string& path)
 {
   size_t slash = path.find_last_of('/');
@@ -236,6 +263,36 @@ void CommitFile(const std::string& tmp, const std::string& path)
 void RemoveFile(const std::string& path)
 {
   std::remove(path.c_str());
+}
+
+PendingFiles::~PendingFiles()
+{
+  for (const File& f : this->Files)
+  {
+    RemoveFile(f.Temporary);
+  }
+}
+
+std::string PendingFiles::Add(const std::string& path)
+{
+  File f;
+  f.Path = path;
+  f.Temporary = TemporaryPathFor(path);
+  this->Files.push_back(f);
+  return f.Temporary;
+}
+
+void PendingFiles::Commit()
+{
+  // The paths were checked before the work and each temporary is in its
+  // path's directory: a rename failing here is an unusual event (the
+  // directory changed meanwhile).
+  while (!this->Files.empty())
+  {
+    File f = this->Files.front();
+    this->Files.erase(this->Files.begin());
+    CommitFile(f.Temporary, f.Path);
+  }
 }
 
 std::string Grouped(unsigned long long value)

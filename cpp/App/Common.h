@@ -35,6 +35,22 @@ std::vector<std::string> TakeVTKErrors();
 // The VTK warnings captured since the last call; clears the buffer.
 std::vector<std::string> TakeVTKWarnings();
 
+// Sends file descriptor 2 to /dev/null while alive: some libraries under
+// VTK (libpng, Xlib) print their complaints straight to stderr, which would
+// break the one-line error report; the reason reaches it through VTK's
+// errors or the caller.
+class StderrSilenced
+{
+public:
+  StderrSilenced();
+  ~StderrSilenced();
+  StderrSilenced(const StderrSilenced&) = delete;
+  StderrSilenced& operator=(const StderrSilenced&) = delete;
+
+private:
+  int Saved = -1;
+};
+
 // Lower-case extension of a file name, with the double extension ".nii.gz"
 // and ".tar.gz" kept whole: "a/B.NII.GZ" -> ".nii.gz", "a/b" -> "".
 std::string Extension(const std::string& path);
@@ -58,6 +74,35 @@ void CommitFile(const std::string& tmp, const std::string& path);
 
 // Removes the file if it exists (no error).
 void RemoveFile(const std::string& path);
+
+// The files of a run, each written to a temporary file next to its path
+// and renamed onto it by Commit() only once the whole run has succeeded:
+// a failure late in the run (a picture, the last sample) must not leave
+// the earlier outputs behind. The destructor removes the temporaries not
+// committed.
+class PendingFiles
+{
+public:
+  PendingFiles() = default;
+  ~PendingFiles();
+  PendingFiles(const PendingFiles&) = delete;
+  PendingFiles& operator=(const PendingFiles&) = delete;
+
+  // The temporary file (TemporaryPathFor) to write path's content to.
+  std::string Add(const std::string& path);
+
+  // Renames every temporary onto its path. Throws Error (the remaining
+  // temporaries are removed).
+  void Commit();
+
+private:
+  struct File
+  {
+    std::string Temporary;
+    std::string Path;
+  };
+  std::vector<File> Files;
+};
 
 // "1234567" -> "1 234 567".
 std::string Grouped(unsigned long long value);

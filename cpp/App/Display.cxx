@@ -18,6 +18,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+// Last: Xlib defines macros (Status, None, Bool) that clash with the code
+// above.
+#ifdef PRECISEMC_APP_HAVE_X11
+#include <X11/Xlib.h>
+#endif
+
 namespace pmcapp
 {
 namespace
@@ -56,6 +62,37 @@ std::string FindProgram(const std::string& name)
     begin = end + 1;
   }
   return std::string();
+}
+
+// Why the X display cannot render, or "" when it can. VTK's X render
+// window abort()s on a display it cannot open (after the work is done,
+// with no error line), and cannot render without GLX: both are checked
+// here, before any work. Without Xlib there is nothing to check with.
+std::string DisplayProblem(const std::string& name)
+{
+#ifdef PRECISEMC_APP_HAVE_X11
+  // Xlib prints its own complaints (e.g. "Authorization required").
+  StderrSilenced silenced;
+  std::string problem;
+  ::Display* display = XOpenDisplay(name.c_str());
+  if (!display)
+  {
+    problem = "cannot open the X display '" + name + "'";
+  }
+  else
+  {
+    int opcode, event, error;
+    if (!XQueryExtension(display, "GLX", &opcode, &event, &error))
+    {
+      problem = "the X display '" + name + "' has no GLX (OpenGL)";
+    }
+    XCloseDisplay(display);
+  }
+  return problem;
+#else
+  (void)name;
+  return std::string();
+#endif
 }
 
 // Starts Xvfb on a free display and points $DISPLAY at it.
@@ -101,10 +138,16 @@ void StartXvfb(const std::string& xvfb)
   if (number.empty())
   {
     waitpid(pid, nullptr, 0);
-    throw Error("cannot render: Xvfb did not start (no $DISPLAY)");
+    throw Error("cannot render --compare/--distance pictures: Xvfb did not start");
   }
   XvfbPid = pid;
   std::atexit(StopXvfb);
+  // The server's own display is checked like any other.
+  std::string problem = DisplayProblem(":" + number);
+  if (!problem.empty())
+  {
+    throw Error("cannot render --compare/--distance pictures with the Xvfb started: " + problem);
+  }
   setenv("DISPLAY", (":" + number).c_str(), 1);
 }
 
@@ -113,15 +156,22 @@ void StartXvfb(const std::string& xvfb)
 void EnsureDisplay()
 {
   const char* display = std::getenv("DISPLAY");
+  std::string problem = "no $DISPLAY";
   if (display && *display)
   {
-    return;
+    problem = DisplayProblem(display);
+    if (problem.empty())
+    {
+      return;
+    }
   }
+  // An unusable $DISPLAY is replaced like a missing one: the pictures are
+  // rendered off screen, any X server with GLX will do.
   std::string xvfb = FindProgram("Xvfb");
   if (xvfb.empty())
   {
-    throw Error("cannot render --compare/--distance pictures: no $DISPLAY and Xvfb "
-                "is not installed (Debian: apt-get install xvfb)");
+    throw Error("cannot render --compare/--distance pictures: " + problem +
+      " and Xvfb is not installed (Debian: apt-get install xvfb)");
   }
   StartXvfb(xvfb);
 }

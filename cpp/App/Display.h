@@ -6,9 +6,10 @@
 namespace pmcapp
 {
 
-// Returns when $DISPLAY is set. Otherwise starts Xvfb (found on $PATH) on
-// a free display for the life of the process and sets $DISPLAY. Throws
-// pmcapp::Error when Xvfb is missing or does not start.
+// Returns when $DISPLAY names a display that opens and has GLX. Otherwise
+// (unset or unusable) starts Xvfb (found on $PATH) on a free display for
+// the life of the process and sets $DISPLAY. Throws pmcapp::Error when
+// Xvfb is missing, does not start or its display is unusable too.
 void EnsureDisplay();
 
 }

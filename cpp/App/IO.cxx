@@ -311,24 +311,22 @@ std::string DescribeVolume(vtkImageData* volume)
   return text;
 }
 
-void CheckSurfaceOutput(const std::string& path)
+void CheckSurfaceFormat(const std::string& path)
 {
   if (!IsSurfaceExtension(Extension(path)))
   {
     throw Error("unknown output format '" + path + "' (known: " + SurfaceExtensions + ")", 2);
   }
-  CheckWritable(path, "surface");
 }
 
-void WriteSurface(vtkPolyData* surface, const std::string& path)
+void WriteSurface(vtkPolyData* surface, const std::string& path, const std::string& file)
 {
   std::string ext = Extension(path);
-  std::string tmp = TemporaryPathFor(path);
   vtkSmartPointer<vtkAlgorithm> writer;
   if (ext == ".vtp")
   {
     auto w = vtkSmartPointer<vtkXMLPolyDataWriter>::New();
-    w->SetFileName(tmp.c_str());
+    w->SetFileName(file.c_str());
     w->SetDataModeToAppended();
     w->SetCompressorTypeToZLib();
     writer = w;
@@ -336,21 +334,21 @@ void WriteSurface(vtkPolyData* surface, const std::string& path)
   else if (ext == ".ply")
   {
     auto w = vtkSmartPointer<vtkPLYWriter>::New();
-    w->SetFileName(tmp.c_str());
+    w->SetFileName(file.c_str());
     w->SetFileTypeToBinary();
     writer = w;
   }
   else if (ext == ".stl")
   {
     auto w = vtkSmartPointer<vtkSTLWriter>::New();
-    w->SetFileName(tmp.c_str());
+    w->SetFileName(file.c_str());
     w->SetFileTypeToBinary();
     writer = w;
   }
   else if (ext == ".obj")
   {
     auto w = vtkSmartPointer<vtkOBJWriter>::New();
-    w->SetFileName(tmp.c_str());
+    w->SetFileName(file.c_str());
     writer = w;
   }
   else
@@ -362,13 +360,12 @@ void WriteSurface(vtkPolyData* surface, const std::string& path)
   TakeVTKErrors();
   writer->Update();
   std::vector<std::string> errors = TakeVTKErrors();
-  if (!errors.empty() || writer->GetErrorCode() != 0 || !IsRegularFile(tmp))
+  if (!errors.empty() || writer->GetErrorCode() != 0 || !IsRegularFile(file))
   {
-    RemoveFile(tmp);
+    RemoveFile(file);
     throw Error("cannot write '" + path + "'" +
       (errors.empty() ? std::string() : ": " + errors.front()));
   }
-  CommitFile(tmp, path);
 }
 
 }

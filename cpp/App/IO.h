@@ -23,13 +23,14 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path);
 // "48x48x20, unsigned char" for the table.
 std::string DescribeVolume(vtkImageData* volume);
 
-// Throws pmcapp::Error unless path has a surface extension (.vtp, .ply,
-// .stl, .obj) and can be created.
-void CheckSurfaceOutput(const std::string& path);
+// Throws pmcapp::Error (status 2) unless path has a surface extension
+// (.vtp, .ply, .stl, .obj).
+void CheckSurfaceFormat(const std::string& path);
 
-// Writes the surface by extension through a temporary file renamed onto
+// Writes the surface in the format of path's extension into file, the
+// temporary of path (PendingFiles::Add), which the caller renames onto
 // path. Throws pmcapp::Error.
-void WriteSurface(vtkPolyData* surface, const std::string& path);
+void WriteSurface(vtkPolyData* surface, const std::string& path, const std::string& file);
 
 }
 

@@ -17,14 +17,31 @@
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 
-#include <cmath>
+#include <string>
 #include <vector>
 
 namespace pmcapp
 {
 
-Distance MeasureDistance(
-  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter)
+namespace
+{
+
+// The library's message of its last failure on this thread, "" if none.
+std::string LastLibraryError()
+{
+  size_t size = pmc_last_error_message(nullptr, 0);
+  if (size == 0)
+  {
+    return std::string();
+  }
+  std::vector<char> text(size + 1, '\0');
+  pmc_last_error_message(text.data(), text.size());
+  return std::string(text.data());
+}
+
+}
+
+Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surface, unsigned density)
 {
   vtkDataArray* scalars = volume->GetPointData()->GetScalars();
   if (!scalars)
@@ -96,7 +113,6 @@ Distance MeasureDistance(
     }
   }
 
-  vtkDataArray* pointScalars = scalarFilter ? surface->GetPointData()->GetScalars() : nullptr;
   std::vector<int64_t> tris;
   tris.reserve(3 * static_cast<size_t>(polys->GetNumberOfCells()));
   auto it = vtk::TakeSmartPointer(polys->NewIterator());
@@ -108,14 +124,6 @@ Distance MeasureDistance(
     if (n < 3)
     {
       continue;
-    }
-    if (pointScalars)
-    {
-      double s = pointScalars->GetComponent(ids[0], 0);
-      if (std::fabs(s - value) > 1e-6 * (1.0 + std::fabs(value)))
-      {
-        continue;
-      }
     }
     // Polygons are fanned into triangles (the contour filters give
     // triangles only).
@@ -136,8 +144,9 @@ Distance MeasureDistance(
     tris.data(), static_cast<uint64_t>(tris.size() / 3), density, &out);
   if (status != PMC_STATUS_OK)
   {
+    std::string why = LastLibraryError();
     throw Error(std::string("--measure: pmc_measure_distance failed: ") +
-      pmc_status_string(status));
+      pmc_status_string(status) + (why.empty() ? std::string() : " (" + why + ")"));
   }
   result.Max = out.max;
   result.Mean = out.mean;

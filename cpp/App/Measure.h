@@ -25,11 +25,9 @@ struct Distance
 // whatever the extent and the direction matrix) lie from the isovalue
 // `value` of the trilinear interpolant of component 0 of `volume`'s
 // scalars, sampling each triangle on a barycentric grid of `density`
-// subdivisions per edge. With `scalarFilter`, only the triangles whose
-// first point has the point scalar `value` are measured (the surfaces of
-// several isovalues appended in one polydata). Throws pmcapp::Error.
-Distance MeasureDistance(
-  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, bool scalarFilter);
+// subdivisions per edge. Every triangle of `surface` is measured: it must
+// be the surface of `value` alone. Throws pmcapp::Error.
+Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surface, unsigned density);
 
 }
 

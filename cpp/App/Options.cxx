@@ -42,7 +42,10 @@ double ParseDouble(const std::string& option, const std::string& text)
   char* end = nullptr;
   errno = 0;
   double value = std::strtod(begin, &end);
-  if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(value))
+  // ERANGE also flags underflow (1e-310 is read as a subnormal or 0, a
+  // usable value): only overflow, read as +-HUGE_VAL, is refused.
+  const bool overflow = errno == ERANGE && std::fabs(value) >= HUGE_VAL;
+  if (text.empty() || end != begin + text.size() || overflow || !std::isfinite(value))
   {
     Usage(option + ": '" + text + "' is not a finite number");
   }
@@ -379,11 +382,11 @@ options:
   -h, --help            print this help
       --version         print the version
 
-Pictures are rendered off screen; without $DISPLAY the tool runs itself
-under xvfb-run (or starts Xvfb). Files are written through a temporary
-file and renamed, so a failed run leaves no partial output. On error, one
-line "precisemc: error: ..." goes to stderr and the exit status is 1 (2
-for a command-line mistake).
+Pictures are rendered off screen; without a usable $DISPLAY (one that
+opens and has GLX) the tool starts a private Xvfb. Files are written
+through temporary files, renamed once the whole run has succeeded, so a
+failed run leaves no output. On error, one line "precisemc: error: ..."
+goes to stderr and the exit status is 1 (2 for a command-line mistake).
 )";
 }
 

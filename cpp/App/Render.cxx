@@ -13,6 +13,7 @@
 #include "vtkDistancePolyDataFilter.h"
 #include "vtkDoubleArray.h"
 #include "vtkImageData.h"
+#include "vtkImageExtractComponents.h"
 #include "vtkLightKit.h"
 #include "vtkMarchingCubes.h"
 #include "vtkMatrix3x3.h"
@@ -35,6 +36,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace pmcapp
 {
@@ -188,8 +190,9 @@ void FrameCamera(vtkRenderer* renderer, vtkPolyData* pd, vtkImageData* volume)
   camera->Zoom(1.1);
 }
 
-// The window is rendered off screen and saved through a temporary file.
-void SavePNG(vtkRenderWindow* window, const std::string& png)
+// The window is rendered off screen and saved into file, the temporary
+// of png.
+void SavePNG(vtkRenderWindow* window, const std::string& png, const std::string& file)
 {
   window->Render();
   vtkNew<vtkWindowToImageFilter> grab;
@@ -198,19 +201,21 @@ void SavePNG(vtkRenderWindow* window, const std::string& png)
   grab->ReadFrontBufferOff();
   grab->Update();
   TakeVTKErrors();
-  std::string tmp = TemporaryPathFor(png);
   vtkNew<vtkPNGWriter> writer;
   writer->SetInputConnection(grab->GetOutputPort());
-  writer->SetFileName(tmp.c_str());
-  writer->Write();
-  std::vector<std::string> errors = TakeVTKErrors();
-  if (writer->GetErrorCode() != 0 || !errors.empty() || !IsRegularFile(tmp))
+  writer->SetFileName(file.c_str());
   {
-    RemoveFile(tmp);
+    // libpng reports a failed write on stderr as well as to VTK.
+    StderrSilenced silenced;
+    writer->Write();
+  }
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (writer->GetErrorCode() != 0 || !errors.empty() || !IsRegularFile(file))
+  {
+    RemoveFile(file);
     throw Error("cannot write picture '" + png + "'" +
       (errors.empty() ? std::string() : ": " + errors.front()));
   }
-  CommitFile(tmp, png);
 }
 
 // Each triangle split into n x n triangles (points not shared between
@@ -276,6 +281,75 @@ vtkSmartPointer<vtkPolyData> Subdivided(vtkPolyData* input, int n)
   return out;
 }
 
+// vtkMarchingCubes interpolates along cell edges that end at a NaN sample
+// too, which gives NaN points: the triangles using a non-finite point are
+// dropped (PreciseMC skips the cells with non-finite samples), so that the
+// pictures and the measures see the finite part only. Returns how many.
+unsigned long long DropNonFiniteTriangles(vtkPolyData* pd)
+{
+  vtkPoints* points = pd->GetPoints();
+  vtkCellArray* polys = pd->GetPolys();
+  if (!points || !polys)
+  {
+    return 0;
+  }
+  const vtkIdType np = points->GetNumberOfPoints();
+  std::vector<char> finite(static_cast<size_t>(np));
+  bool all = true;
+  for (vtkIdType p = 0; p < np; ++p)
+  {
+    double x[3];
+    points->GetPoint(p, x);
+    finite[p] = std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]);
+    all = all && finite[p];
+  }
+  if (all)
+  {
+    return 0;
+  }
+  // The kept points are renumbered in order, with their point data.
+  vtkPointData* inPD = pd->GetPointData();
+  vtkNew<vtkPointData> outPD;
+  outPD->CopyAllocate(inPD);
+  auto newPoints = vtkSmartPointer<vtkPoints>::New();
+  newPoints->SetDataType(points->GetDataType());
+  auto newPolys = vtkSmartPointer<vtkCellArray>::New();
+  std::vector<vtkIdType> renumbered(static_cast<size_t>(np), -1);
+  std::vector<vtkIdType> cell;
+  unsigned long long dropped = 0;
+  vtkIdType n;
+  const vtkIdType* ids;
+  for (polys->InitTraversal(); polys->GetNextCell(n, ids);)
+  {
+    bool keep = true;
+    for (vtkIdType k = 0; k < n && keep; ++k)
+    {
+      keep = finite[ids[k]] != 0;
+    }
+    if (!keep)
+    {
+      ++dropped;
+      continue;
+    }
+    cell.resize(static_cast<size_t>(n));
+    for (vtkIdType k = 0; k < n; ++k)
+    {
+      vtkIdType& id = renumbered[ids[k]];
+      if (id < 0)
+      {
+        id = newPoints->InsertNextPoint(points->GetPoint(ids[k]));
+        outPD->CopyData(inPD, ids[k], id);
+      }
+      cell[k] = id;
+    }
+    newPolys->InsertNextCell(n, cell.data());
+  }
+  pd->SetPoints(newPoints);
+  pd->GetPointData()->ShallowCopy(outPD);
+  pd->SetPolys(newPolys);
+  return dropped;
+}
+
 bool ShowEdges(vtkIdType triangles, int width, int height)
 {
   // Edges help while triangles are large on screen; on dense meshes they
@@ -286,7 +360,7 @@ bool ShowEdges(vtkIdType triangles, int width, int height)
 }
 
 vtkSmartPointer<vtkPolyData> RunMarchingCubes(
-  vtkImageData* volume, const std::vector<double>& values)
+  vtkImageData* volume, const std::vector<double>& values, unsigned long long* dropped)
 {
   // Some VTK versions apply the direction matrix in vtkMarchingCubes (9.1
   // does), others not: contour an axis-aligned copy and apply the matrix
@@ -295,7 +369,20 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
   aligned->ShallowCopy(volume);
   aligned->SetDirectionMatrix(1, 0, 0, 0, 1, 0, 0, 0, 1);
   vtkNew<vtkMarchingCubes> mc;
-  mc->SetInputData(aligned);
+  // vtkMarchingCubes takes single-component scalars only: it is given
+  // component 0, the one PreciseMC contours.
+  vtkDataArray* scalars = volume->GetPointData()->GetScalars();
+  vtkNew<vtkImageExtractComponents> component0;
+  if (scalars && scalars->GetNumberOfComponents() > 1)
+  {
+    component0->SetInputData(aligned);
+    component0->SetComponents(0);
+    mc->SetInputConnection(component0->GetOutputPort());
+  }
+  else
+  {
+    mc->SetInputData(aligned);
+  }
   for (size_t i = 0; i < values.size(); ++i)
   {
     mc->SetValue(static_cast<int>(i), values[i]);
@@ -303,9 +390,20 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
   mc->ComputeNormalsOn();
   mc->ComputeScalarsOff();
   mc->ComputeGradientsOff();
+  TakeVTKErrors();
   mc->Update();
+  std::vector<std::string> errors = TakeVTKErrors();
+  if (!errors.empty())
+  {
+    throw Error("vtkMarchingCubes: " + errors.front());
+  }
   auto out = vtkSmartPointer<vtkPolyData>::New();
   out->ShallowCopy(mc->GetOutput());
+  unsigned long long removed = DropNonFiniteTriangles(out);
+  if (dropped)
+  {
+    *dropped = removed;
+  }
 
   // p' = origin + D (p - origin).
   vtkMatrix3x3* d = volume->GetDirectionMatrix();
@@ -377,7 +475,8 @@ void ComputeDistance(Panel& panel)
   panel.Distance = result;
 }
 
-void RenderCompare(const std::vector<Panel>& panels, const std::string& png)
+void RenderCompare(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file)
 {
   const int rows = static_cast<int>(panels.size());
   const int width = 1600;
@@ -413,10 +512,11 @@ void RenderCompare(const std::vector<Panel>& panels, const std::string& png)
     window->AddRenderer(left);
     window->AddRenderer(right);
   }
-  SavePNG(window, png);
+  SavePNG(window, png, file);
 }
 
-void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
+void RenderDistance(
+  const std::vector<Panel>& panels, const std::string& png, const std::string& file)
 {
   const int cols = static_cast<int>(panels.size());
   const int width = cols == 1 ? 1000 : 1800;
@@ -492,7 +592,7 @@ void RenderDistance(const std::vector<Panel>& panels, const std::string& png)
       0.5, 0.93, 16, 1, true);
     window->AddRenderer(renderer);
   }
-  SavePNG(window, png);
+  SavePNG(window, png, file);
 }
 
 }

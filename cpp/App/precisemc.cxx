@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <thread>
 
 #include <unistd.h>
 
@@ -131,6 +132,20 @@ std::string ValuesText(const std::vector<double>& values)
   return text;
 }
 
+// The samples to generate: none for an input file.
+std::vector<std::string> SampleList(const pmcapp::Options& o)
+{
+  if (!o.Input.empty())
+  {
+    return {};
+  }
+  if (o.Sample.empty() || o.Sample == "all")
+  {
+    return pmcapp::SampleNames();
+  }
+  return { o.Sample };
+}
+
 std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
 {
   std::vector<DataSet> sets;
@@ -160,16 +175,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
   }
   else
   {
-    std::vector<std::string> names;
-    if (o.Sample.empty() || o.Sample == "all")
-    {
-      names = pmcapp::SampleNames();
-    }
-    else
-    {
-      names.push_back(o.Sample);
-    }
-    for (const auto& name : names)
+    for (const auto& name : SampleList(o))
     {
       DataSet d;
       Clock::time_point start = Clock::now();
@@ -228,6 +234,44 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   f->SetComputeLevels(levels);
 }
 
+// vtkMarchingCubes's surface of the values (pmcapp::RunMarchingCubes),
+// its errors naming the volume.
+vtkSmartPointer<vtkPolyData> Baseline(
+  const DataSet& d, const std::vector<double>& values, unsigned long long* dropped = nullptr)
+{
+  try
+  {
+    return pmcapp::RunMarchingCubes(d.Volume, values, dropped);
+  }
+  catch (const Error& e)
+  {
+    throw Error(d.Name + ": " + e.what(), e.Status);
+  }
+}
+
+// PreciseMC's surface of one isovalue alone, for --measure. The surfaces of
+// several isovalues cannot be told apart in the filter's output: its point
+// scalars are in the input's type (on uint8 data 50.5 is stored as 50).
+vtkSmartPointer<vtkPolyData> ExtractOne(const DataSet& d, double value, const pmcapp::Options& o)
+{
+  vtkNew<vtkPreciseMarchingCubes> filter;
+  filter->SetInputData(d.Volume);
+  filter->SetValue(0, value);
+  Configure(filter, o, false);
+  filter->SetComputeNormals(false);
+  pmcapp::TakeVTKErrors();
+  filter->Update();
+  std::vector<std::string> errors = pmcapp::TakeVTKErrors();
+  if (!errors.empty())
+  {
+    throw Error(d.Name + ": " + errors.front());
+  }
+  pmcapp::TakeVTKWarnings();
+  auto out = vtkSmartPointer<vtkPolyData>::New();
+  out->ShallowCopy(filter->GetOutput());
+  return out;
+}
+
 std::string Row(const std::string& key, const std::string& value)
 {
   std::string padded = "  " + key;
@@ -261,13 +305,40 @@ int main(int argc, char* argv[])
     }
     if (o.SMP && o.Threads > 0)
     {
-      vtkSMPTools::Initialize(o.Threads);
+      // TBB warns on stderr (which -q keeps for errors) when asked for
+      // more threads than the machine has: ask for at most that many.
+      int threads = o.Threads;
+      unsigned cores = std::thread::hardware_concurrency();
+      if (cores > 0 && static_cast<unsigned>(threads) > cores)
+      {
+        threads = static_cast<int>(cores);
+      }
+      vtkSMPTools::Initialize(threads);
     }
 
-    // Outputs first: a bad path should not cost an extraction.
+    // Outputs first: a bad path should not cost an extraction. With
+    // several volumes the paths written are the per-volume ones (o.Output
+    // itself is never written then), so those are the ones checked.
+    const std::vector<std::string> samples = SampleList(o);
+    const bool several = samples.size() > 1;
+    auto pathFor = [several](const std::string& path, const std::string& name) {
+      return several ? pmcapp::WithSuffix(path, name) : path;
+    };
+    const std::vector<std::string> names = several ? samples : std::vector<std::string>{ "" };
     if (!o.Output.empty())
     {
-      pmcapp::CheckSurfaceOutput(o.Output);
+      pmcapp::CheckSurfaceFormat(o.Output);
+      for (const auto& name : names)
+      {
+        pmcapp::CheckWritable(pathFor(o.Output, name), "surface");
+      }
+    }
+    if (!o.WriteVolume.empty())
+    {
+      for (const auto& name : names)
+      {
+        pmcapp::CheckWritable(pathFor(o.WriteVolume, name), "volume");
+      }
     }
     if (!o.Compare.empty())
     {
@@ -277,10 +348,6 @@ int main(int argc, char* argv[])
     {
       pmcapp::CheckWritable(o.Distance, "picture");
     }
-    if (!o.WriteVolume.empty())
-    {
-      pmcapp::CheckWritable(o.WriteVolume, "volume");
-    }
     const bool pictures = !o.Compare.empty() || !o.Distance.empty();
     if (pictures)
     {
@@ -288,7 +355,8 @@ int main(int argc, char* argv[])
     }
 
     std::vector<DataSet> sets = LoadDataSets(o);
-    const bool several = sets.size() > 1;
+    // Every file of the run is committed at its end, after the pictures.
+    pmcapp::PendingFiles files;
 
     std::string refinedLabel = o.Epsilon > 0.0 && o.MaxLevel > 0
       ? "PreciseMC (eps " + pmcapp::General(o.Epsilon) + ", level <= " +
@@ -299,8 +367,7 @@ int main(int argc, char* argv[])
 
     for (auto& d : sets)
     {
-      std::string output = o.Output.empty() ? std::string()
-        : several ? pmcapp::WithSuffix(o.Output, d.Name) : o.Output;
+      std::string output = o.Output.empty() ? std::string() : pathFor(o.Output, d.Name);
 
       vtkNew<vtkPreciseMarchingCubes> filter;
       filter->SetInputData(d.Volume);
@@ -337,12 +404,11 @@ int main(int argc, char* argv[])
       if (pictures || o.Measure)
       {
         start = Clock::now();
-        panel.MC = pmcapp::RunMarchingCubes(d.Volume, d.Values);
+        panel.MC = Baseline(d, d.Values, &panel.MCDropped);
         mcSeconds = SecondsSince(start);
       }
-      // --measure: one isovalue at a time (vtkMarchingCubes is rerun on its
-      // own for each value when there are several; PreciseMC's appended
-      // surfaces are told apart by their point scalars, the isovalue).
+      // --measure: one isovalue at a time; with several, both surfaces are
+      // extracted again for each value alone.
       std::vector<pmcapp::Distance> mcDistances, refinedDistances;
       if (o.Measure)
       {
@@ -350,12 +416,14 @@ int main(int argc, char* argv[])
         const unsigned density = static_cast<unsigned>(o.MeasureDensity < 0 ? 3 : o.MeasureDensity);
         for (double v : d.Values)
         {
-          vtkSmartPointer<vtkPolyData> mcSurface = d.Values.size() > 1
-            ? pmcapp::RunMarchingCubes(d.Volume, std::vector<double>{ v })
-            : panel.MC;
-          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density, false));
-          refinedDistances.push_back(pmcapp::MeasureDistance(
-            d.Volume, v, panel.Refined, density, d.Values.size() > 1));
+          const bool alone = d.Values.size() == 1;
+          vtkSmartPointer<vtkPolyData> mcSurface =
+            alone ? panel.MC : Baseline(d, std::vector<double>{ v });
+          vtkSmartPointer<vtkPolyData> refinedSurface =
+            alone ? panel.Refined : ExtractOne(d, v, o);
+          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density));
+          refinedDistances.push_back(
+            pmcapp::MeasureDistance(d.Volume, v, refinedSurface, density));
         }
         measureSeconds = SecondsSince(start);
       }
@@ -367,8 +435,8 @@ int main(int argc, char* argv[])
       }
       if (!o.WriteVolume.empty())
       {
-        std::string path = several ? pmcapp::WithSuffix(o.WriteVolume, d.Name) : o.WriteVolume;
-        std::string tmp = pmcapp::TemporaryPathFor(path);
+        std::string path = pathFor(o.WriteVolume, d.Name);
+        std::string tmp = files.Add(path);
         vtkNew<vtkXMLImageDataWriter> writer;
         writer->SetFileName(tmp.c_str());
         writer->SetInputData(d.Volume);
@@ -376,15 +444,13 @@ int main(int argc, char* argv[])
         writer->EncodeAppendedDataOff();
         if (!writer->Write())
         {
-          pmcapp::RemoveFile(tmp);
           throw Error("cannot write the volume " + path);
         }
-        pmcapp::CommitFile(tmp, path);
       }
       if (!output.empty())
       {
         start = Clock::now();
-        pmcapp::WriteSurface(panel.Refined, output);
+        pmcapp::WriteSurface(panel.Refined, output, files.Add(output));
         writeSeconds = SecondsSince(start);
       }
 
@@ -431,7 +497,16 @@ int main(int argc, char* argv[])
             pmcapp::Grouped(filter->GetNumberOfFacesAboveEpsilon()) +
               " triangles at the level cap");
         }
-        if (!o.Distance.empty())
+        if (panel.MCDropped > 0)
+        {
+          table << Row("MC non-finite", pmcapp::Grouped(panel.MCDropped) +
+              " vtkMarchingCubes triangles at NaN samples dropped (not shown, not measured)");
+        }
+        if (!o.Distance.empty() && panel.MC->GetNumberOfPolys() == 0)
+        {
+          table << Row("MC to refined", "no vtkMarchingCubes triangles to measure");
+        }
+        else if (!o.Distance.empty())
         {
           table << Row("MC to refined", "max " + pmcapp::Fixed(panel.MaxDistance, 3) + ", mean " +
               pmcapp::Fixed(panel.MeanDistance, 3) + " cells");
@@ -440,6 +515,12 @@ int main(int argc, char* argv[])
         {
           std::string which = d.Values.size() > 1 ? " (v " + pmcapp::General(d.Values[i]) + ")" : "";
           auto text = [](const pmcapp::Distance& m, const std::string& who) {
+            // An empty surface has no distance: say so rather than print
+            // zeros that read like a perfect result.
+            if (m.Triangles == 0 || m.Samples == 0)
+            {
+              return "no triangles to measure (" + who + ")";
+            }
             std::string t = "max " + pmcapp::Fixed(m.Max, 5) + ", mean " +
               pmcapp::Fixed(m.Mean, 5) + " cells (" + who + ", " + pmcapp::Grouped(m.Samples) +
               " points";
@@ -480,25 +561,25 @@ int main(int argc, char* argv[])
       panels.push_back(panel);
     }
 
+    std::string pictureLines;
     if (!o.Compare.empty())
     {
       Clock::time_point start = Clock::now();
-      pmcapp::RenderCompare(panels, o.Compare);
-      if (!o.Quiet)
-      {
-        std::cout << "compare picture: " << o.Compare << " (" << Seconds(SecondsSince(start))
-                  << ")" << std::endl;
-      }
+      pmcapp::RenderCompare(panels, o.Compare, files.Add(o.Compare));
+      pictureLines +=
+        "compare picture: " + o.Compare + " (" + Seconds(SecondsSince(start)) + ")\n";
     }
     if (!o.Distance.empty())
     {
       Clock::time_point start = Clock::now();
-      pmcapp::RenderDistance(panels, o.Distance);
-      if (!o.Quiet)
-      {
-        std::cout << "distance picture: " << o.Distance << " (" << Seconds(SecondsSince(start))
-                  << ")" << std::endl;
-      }
+      pmcapp::RenderDistance(panels, o.Distance, files.Add(o.Distance));
+      pictureLines +=
+        "distance picture: " + o.Distance + " (" + Seconds(SecondsSince(start)) + ")\n";
+    }
+    files.Commit();
+    if (!o.Quiet)
+    {
+      std::cout << pictureLines << std::flush;
     }
     return 0;
   }

@@ -672,6 +672,181 @@ def error_measure_options():
 
 
 @check
+def quiet_smp_threads_and_tiny_numbers():
+    # More vtkSMPTools threads than cores: TBB's warning would break -q.
+    ok("--sample", "ml", "--smp", "--threads", str(8 * (os.cpu_count() or 1)), "-q")
+    # Underflow is a number (strtod flags it ERANGE like overflow).
+    r = ok("--sample", "ml", "--epsilon", "1e-310", "--max-level", "1")
+    expect(table_value(r.stdout, "output triangles") > 0, "no triangles")
+    expect_error(["--sample", "ml", "--epsilon", "1e999"], "not a finite number", status=2)
+    expect_error(["--sample", "ml", "-v", "-1e400"], "not a finite number", status=2)
+
+
+@check
+def late_failure_commits_nothing():
+    """A picture failing after the surfaces and volumes are written (here a
+    file size limit the picture exceeds) leaves none of them behind."""
+    d = fresh_dir("late-failure")
+    out, vti, c = (os.path.join(d, n) for n in ("t.vtp", "t.vti", "t.png"))
+    # A limit of 100 kB: the surface (plain Marching Cubes, about 30 kB) and
+    # the volume (3 kB) are written, the picture (about 150 kB) fails with
+    # EFBIG (SIGXFSZ ignored).
+    script = 'trap "" XFSZ; ulimit -f 100; exec "$0" "$@"'
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    r = subprocess.run(["/bin/sh", "-c", script, TOOL, "--sample", "tube", "--epsilon", "0",
+                        "--normals", "none", "-o", out, "--write-volume", vti, "--compare", c],
+                       capture_output=True, text=True, env=environment, timeout=TIMEOUT)
+    expect(r.returncode == 1, f"exit status {r.returncode}, stderr {r.stderr!r}")
+    lines = r.stderr.splitlines()
+    expect(len(lines) == 1 and lines[0].startswith("precisemc: error: cannot write picture"),
+           f"stderr: {r.stderr!r}")
+    expect(os.listdir(d) == [], f"left behind: {os.listdir(d)}")
+
+
+@check
+def sample_all_checks_the_paths_written():
+    d = fresh_dir("sample-all-paths")
+    base = os.path.join(d, "s.vtp")
+    # The base name is never written with several samples: it may be a
+    # directory.
+    os.makedirs(base)
+    ok("--sample", "all", "-o", base, "--epsilon", "0")
+    expect(sorted(os.listdir(d)) == ["s-atoms.vtp", "s-ml.vtp", "s-tube.vtp", "s.vtp"],
+           os.listdir(d))
+    for n in ("tube", "atoms", "ml"):
+        os.remove(os.path.join(d, f"s-{n}.vtp"))
+    # A per-sample path that cannot be written fails before any work, and
+    # the samples before it leave nothing.
+    os.makedirs(os.path.join(d, "s-ml.vtp"))
+    expect_error(["--sample", "all", "-o", base], "s-ml.vtp': it is a directory",
+                 outputs=[os.path.join(d, "s-tube.vtp"), os.path.join(d, "s-atoms.vtp")])
+    vol = os.path.join(d, "v.vti")
+    os.makedirs(os.path.join(d, "v-atoms.vti"))
+    expect_error(["--sample", "all", "--write-volume", vol], "v-atoms.vti': it is a directory",
+                 outputs=[os.path.join(d, "v-tube.vti")])
+    expect(sorted(os.listdir(d)) == ["s-ml.vtp", "s.vtp", "v-atoms.vti"], os.listdir(d))
+
+
+def unused_display():
+    """A display number no X server listens on."""
+    n = 987
+    while os.path.exists(f"/tmp/.X11-unix/X{n}") or os.path.exists(f"/tmp/.X{n}-lock"):
+        n += 1
+    return f":{n}"
+
+
+@check
+def pictures_with_an_unusable_display():
+    d = fresh_dir("bad-display")
+    out, c = os.path.join(d, "x.vtp"), os.path.join(d, "x.png")
+    bad = unused_display()
+    # VTK abort()ed on it after the surface was written: now the tool sees
+    # it cannot open it and renders on its private Xvfb instead.
+    ok("--sample", "tube", "-o", out, "--compare", c, env={"DISPLAY": bad})
+    expect(png_size(c) == (1600, 800), "size")
+    expect(read_surface(out).GetNumberOfPolys() > 0, "no surface")
+    for f in (out, c):
+        os.remove(f)
+    # Without Xvfb: one error line before any work.
+    expect_error(["--sample", "tube", "-o", out, "--compare", c], f"cannot open the X display '{bad}'",
+                 outputs=[out, c], status=1, env={"DISPLAY": bad, "PATH": "/nonexistent"})
+    # A display without GLX (an Xvfb started with GLX disabled): refused too.
+    xvfb = shutil.which("Xvfb")
+    expect(xvfb, "Xvfb is not installed")
+    bindir = os.path.join(d, "bin")
+    os.makedirs(bindir)
+    with open(os.path.join(bindir, "Xvfb"), "w") as f:
+        f.write(f'#!/bin/sh\nexec {xvfb} "$@" -extension GLX\n')
+    os.chmod(os.path.join(bindir, "Xvfb"), 0o755)
+    expect_error(["--sample", "tube", "-o", out, "--compare", c], "has no GLX",
+                 outputs=[out, c], status=1, env={"PATH": bindir})
+    expect(sorted(os.listdir(d)) == ["bin"], f"left behind: {os.listdir(d)}")
+
+
+def write_vti(image, path):
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(image)
+    w.Write()
+    return path
+
+
+@check
+def multi_component_input_has_a_baseline():
+    """vtkMarchingCubes takes single-component scalars: it is given
+    component 0, the one PreciseMC contours, so the baseline of a
+    3-component volume is that of its component 0 alone."""
+    d = fresh_dir("multi-component")
+    plain = write_vti(blob_image(), os.path.join(d, "plain.vti"))
+    image = blob_image()
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    three = np.stack([v, np.full_like(v, 7.0), -v], axis=1)
+    arr = numpy_to_vtk(three, deep=True)
+    arr.SetName("vector")
+    image.GetPointData().SetScalars(arr)
+    vec = write_vti(image, os.path.join(d, "vec.vti"))
+    results = []
+    for path in (plain, vec):
+        r = ok(path, "-v", "40", "--measure")
+        results.append((measured(r.stdout, "S_K distance MC"),
+                        measured(r.stdout, "S_K distance out")))
+    expect("component 0 of 3" in r.stdout, "the table does not name the component")
+    expect(results[0] == results[1], f"component 0 measures differently: {results}")
+    expect(results[1][0][0][2] > 0, "no vtkMarchingCubes baseline measured")
+    c = os.path.join(d, "c.png")
+    r = ok(vec, "-v", "40", "--compare", c, "--distance", os.path.join(d, "d.png"))
+    expect(png_size(c) == (1600, 800), "compare size")
+    m = re.search(r"MC to refined\s+max ([0-9.]+), mean ([0-9.]+)", r.stdout)
+    expect(m and float(m.group(1)) > 0, f"no distance of the baseline:\n{r.stdout}")
+
+
+@check
+def nan_samples_in_the_baseline():
+    """vtkMarchingCubes gives NaN points next to NaN samples: its triangles
+    using them are dropped (and counted) before measuring and the distance."""
+    d = fresh_dir("nan")
+    image = blob_image()
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    v[::5] = np.nan
+    image.GetPointData().GetScalars().Modified()
+    path = write_vti(image, os.path.join(d, "nan.vti"))
+    r = ok(path, "-v", "40", "--measure")
+    for key in ("S_K distance MC", "S_K distance out"):
+        (mx, mean, points), = measured(r.stdout, key)
+        expect(points > 0 and math.isfinite(mx) and math.isfinite(mean), f"{key}: {r.stdout}")
+    expect(re.search(r"^  MC non-finite\s+[0-9 ]+ vtkMarchingCubes triangles", r.stdout, re.M),
+           f"the dropped triangles are not reported:\n{r.stdout}")
+    r = ok(path, "-v", "40", "--distance", os.path.join(d, "d.png"))
+    m = re.search(r"MC to refined\s+max ([0-9.]+), mean ([0-9.]+) cells", r.stdout)
+    expect(m, f"no finite distance row:\n{r.stdout}")
+
+
+@check
+def measure_several_isovalues_on_integer_data():
+    """On uint8 data the filter stores the isovalue 50.5 as the point scalar
+    50 (the input's type, as VTK's contour filters do): each isovalue's
+    surface is still measured, not an empty selection of it."""
+    d = fresh_dir("measure-uint8")
+    r = ok("--sample", "tube", "--measure", "--measure-density", "1", "-v", "50.5", "-v", "100.5")
+    mc = measured(r.stdout, "S_K distance MC")
+    out = measured(r.stdout, "S_K distance out")
+    expect(len(mc) == 2 and len(out) == 2, "one row pair per isovalue expected")
+    for m in mc + out:
+        expect(m[2] > 0, f"a measurement of no points: {m}\n{r.stdout}")
+        expect(m[0] < 1e-3, f"vertex distance {m[0]} not ~0")
+    expect(sum(p for _, _, p in out) == 3 * table_value(r.stdout, "output triangles"),
+           "the refined triangles of both isovalues are measured once each")
+    # What the README says of the .vtp point scalars: the input's type.
+    vtp = os.path.join(d, "tube.vtp")
+    ok("--sample", "tube", "-v", "50.5", "-o", vtp)
+    scalars = read_surface(vtp).GetPointData().GetScalars()
+    expect(scalars is not None and scalars.GetDataTypeAsString() == "unsigned char",
+           "the point scalars are not in the input's type")
+    expect(scalars.GetRange() == (50.0, 50.0), f"point scalars {scalars.GetRange()}, expected 50")
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
