@@ -205,7 +205,10 @@ impl Queue {
                     break;
                 }
                 if child + 1 < n
-                    && before(&boxes[heap[child + 1] as usize], &boxes[heap[child] as usize])
+                    && before(
+                        &boxes[heap[child + 1] as usize],
+                        &boxes[heap[child] as usize],
+                    )
                 {
                     child += 1;
                 }
@@ -311,7 +314,8 @@ fn search<F: ReconstructionFilter>(
         };
         if b.lower > epsilon {
             if b.size <= COARSE {
-                return match edge_root::<F>(&f, &b, p).and_then(|q| polish::<F>(cell, iso, p, q, margin))
+                return match edge_root::<F>(&f, &b, p)
+                    .and_then(|q| polish::<F>(cell, iso, p, q, margin))
                 {
                     Some(x) => Test::Far(x),
                     None => Test::Failed,
