@@ -2,7 +2,8 @@
 //!
 //! Each slab numbers its own points; only points on a slab's bottom plane
 //! can already exist in the slab before it (its top plane). Every step
-//! that touches all points or triangles runs in parallel, one slab per
+//! that touches all points or triangles runs on the executor it is given
+//! (the calling thread for small meshes, see `extract`), one slab per
 //! task; what stays serial is proportional to the points on the planes
 //! between slabs and to the triangles lying in grid planes. Points are
 //! numbered slab by slab in order of first use, so the output does not
