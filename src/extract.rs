@@ -644,7 +644,6 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
             chosen = l;
         }
         max_level = chosen as u32;
-        stats.budget_reached = true;
         outs = pass(max_level, Mode::Output { cap: u64::MAX }, (0.6, 0.35))?;
         // The count is exact in the usual case, but near ties welding can
         // make the output differ a little; the cap is a promise, so step
@@ -658,6 +657,10 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
         }
     }
     stats.effective_max_level = max_level;
+    // The cap lowered the level refinement was asked to reach (with
+    // refinement off, a cap below the Marching Cubes count changes
+    // nothing: those triangles are always kept).
+    stats.budget_reached = refine && max_level < options.max_level;
 
     let t_asm = Instant::now();
     let passes_wall = (t_asm - start).as_secs_f64();
