@@ -262,14 +262,23 @@ static void test_extract_errors(void) {
     v.len = good.len - 1;
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "aligned");
 
-    /* Index offset out of range is rejected at extraction. */
+    /* Index offset out of range (beyond +/-PMC_MAX_INDEX_OFFSET) is
+     * rejected at extraction. */
     {
         int64_t off[3] = {0, (int64_t)1 << 60, 0};
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT,
+                    "index offset 1 is 1152921504606846976");
         off[1] = INT64_MIN;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is");
+        off[1] = PMC_MAX_INDEX_OFFSET + 1;
+        CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is 2147483649");
+        off[1] = -PMC_MAX_INDEX_OFFSET;
+        CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
+        CHECK_STATUS(pmc_extract(&good, 3.0, o, &m), PMC_STATUS_OK);
+        pmc_mesh_free(m);
         off[1] = -(int64_t)1000000;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
         CHECK_STATUS(pmc_extract(&good, 3.0, o, &m), PMC_STATUS_OK);
