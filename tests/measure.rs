@@ -400,7 +400,7 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
 /// volume's representable index range, not a non-finite point.
 #[test]
 fn c_api_names_points_beyond_the_index_range() {
-    let values = vec![0.0f64; 8];
+    let values = [0.0f64; 8];
     let mut cv = pmc_volume {
         data: values.as_ptr().cast(),
         len: 8,
