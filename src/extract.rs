@@ -1798,6 +1798,7 @@ mod tests {
 
     #[test]
     fn unrefined_output_is_the_same_for_any_slab_cut() {
+        crate::volume::test_offset_limit::raise();
         // Without refinement, points strictly inside grid edges are welded
         // by the edge caches alone (no map): every cut into slabs and every
         // thread count must still give the same mesh, with no two points at
@@ -1859,6 +1860,7 @@ mod tests {
 
     #[test]
     fn flat_triangles_are_found_without_looking_at_every_one() {
+        crate::volume::test_offset_limit::raise();
         // The unrefined pass looks for triangles lying in a grid plane only
         // in cells whose table triangles have three points on one face, or
         // once a point sat on a grid point; its debug check fails the test

@@ -171,6 +171,33 @@ pub const MAX_DIMENSION: u64 = 1 << 40;
 /// (at 2^50 a sphere's largest radius error tripled).
 pub const MAX_INDEX_OFFSET: i64 = 1 << 31;
 
+/// The accepted magnitude of an index offset: [`MAX_INDEX_OFFSET`], but
+/// unit tests of the paths that handle coarsely rounded points (points of
+/// distinct cells that round together, reachable at offset 0 only with
+/// dims near 2^40) raise it on their thread to reach them with small
+/// volumes far out.
+fn offset_limit() -> u64 {
+    #[cfg(test)]
+    if let Some(l) = test_offset_limit::LIMIT.with(|l| l.get()) {
+        return l;
+    }
+    MAX_INDEX_OFFSET as u64
+}
+
+#[cfg(test)]
+pub(crate) mod test_offset_limit {
+    thread_local! {
+        /// This thread's override of the index offset limit.
+        pub(crate) static LIMIT: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+    }
+
+    /// Accepts index offsets up to 2^50 on this thread (the limit before
+    /// offsets were capped at 2^31).
+    pub(crate) fn raise() {
+        LIMIT.with(|l| l.set(Some(1 << 50)));
+    }
+}
+
 /// Contiguous strides (x fastest) for `dims`. When they overflow `i64`,
 /// `i64::MAX` stands in for the stride that overflows (not 0, which would
 /// read as aliasing): such dims hold more samples than `isize::MAX`, which
@@ -273,7 +300,7 @@ impl<'a> Volume<'a> {
                     value: self.dims[a],
                 });
             }
-            if self.index_offset[a].unsigned_abs() > MAX_INDEX_OFFSET as u64 {
+            if self.index_offset[a].unsigned_abs() > offset_limit() {
                 return Err(Error::InvalidIndexOffset {
                     axis: a,
                     value: self.index_offset[a],
