@@ -36,6 +36,13 @@
 #define PMC_MAX_THREADS 4096
 
 /**
+ * Largest magnitude of an index offset accepted by `pmc_extract` (2^31):
+ * each of the three offsets set with `pmc_options_set_index_offset` must
+ * lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`.
+ */
+#define PMC_MAX_INDEX_OFFSET 2147483648
+
+/**
  * Outcome of a call. The numeric values are part of the stable ABI and are
  * never renumbered; new codes may be appended.
  *
@@ -347,7 +354,9 @@ typedef struct pmc_volume {
     double origin[3];
     /**
      * World distance between neighbouring samples along x, y and z;
-     * finite and > 0.
+     * finite and > 0. The world box must be finite too: on each axis,
+     * `origin + spacing * index` must not overflow for the first and last
+     * global sample index (`index_offset` and `index_offset + dims - 1`).
      */
     double spacing[3];
 } pmc_volume;
@@ -444,7 +453,9 @@ typedef struct pmc_stats {
     double mean_level;
     /**
      * 1 if the triangle cap stopped refinement below the requested max
-     * level, else 0.
+     * level (`effective_max_level` below it), else 0. Always 0 with
+     * refinement off (epsilon or max level 0): the Marching Cubes
+     * triangles are kept whatever the cap, and no level is lowered.
      */
     uint8_t budget_reached;
     /**
@@ -597,15 +608,22 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * distance), not by the refinement's own projection.
  *
  * `points` holds `point_count` xyz triples in world coordinates, where
- * sample `(i, j, k)` of `volume` lies at `origin + spacing * (i, j, k)`
- * (give the points of a mesh extracted with an index offset relative to
- * the same origin). `triangles` holds `triangle_count` triples of point
- * ids. On success stores the statistics in `*out` and returns
- * `PMC_STATUS_OK`; `*out` is zeroed on failure. Errors:
+ * sample `(i, j, k)` of `volume` lies at `origin + spacing * (i, j, k)`:
+ * this function takes no index offset (`pmc_options_set_index_offset`),
+ * it measures in the volume's own frame. The points of a mesh extracted
+ * with an index offset `o` lie at `origin + spacing * (o + (i, j, k))`:
+ * measure them against a copy of the volume whose `origin` is moved to
+ * `origin + spacing * o` per axis (with the unmoved origin they would be
+ * measured `o` samples away from their surface). `triangles` holds
+ * `triangle_count` triples of point ids. On success stores the
+ * statistics in `*out` and returns `PMC_STATUS_OK`; `*out` is zeroed on
+ * failure. Errors:
  * `PMC_STATUS_NULL_ARGUMENT` for a `NULL` `volume`, `volume->data` or
  * `out` (or `points`/`triangles` with a non-zero count);
  * `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume, a non-finite
- * isovalue or point, a point id out of range, or `density > 1024`;
+ * isovalue or point, a point outside the volume's representable index
+ * range (`(p - origin) / spacing` overflows), a point id out of range,
+ * or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
  * made. Uses all cores; the result does not depend on their number.
  *
@@ -983,8 +1001,18 @@ pmc_status pmc_options_set_executor(struct pmc_options *options, pmc_executor_fn
  * meshed again on sub-cells drops its strip in a face whose neighbour is
  * meshed again too only when the piece holds that neighbour.
  *
- * Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options or offset. Offsets
- * beyond +/-2^50 are rejected by `pmc_extract`.
+ * Each offset must lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`
+ * (+/-2^31, which holds every VTK extent). Index points are global
+ * doubles with the offset included, rounded to at most 2^-21 cells in
+ * this range: Marching Cubes gives the mesh of offset 0 moved by the
+ * offset, triangle for triangle, and refined meshes are as close to the
+ * isosurface as at offset 0 (though a refinement decision near a tie may
+ * differ); farther offsets would round points coarsely enough to degrade
+ * the refinement. `pmc_extract`
+ * rejects an offset outside it with `PMC_STATUS_INVALID_ARGUMENT` and a
+ * message naming the axis and value; this setter stores any value.
+ *
+ * Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options or offset.
  *
  * # Safety
  *

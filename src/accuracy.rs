@@ -87,9 +87,15 @@ pub struct Distance {
 ///
 /// `points` are in the volume's global index space (as
 /// [`crate::Mesh::index_points`]: sample `(i, j, k)` of the buffer is at
-/// `index_offset + (i, j, k)`). Triangles index `points`. Errors: invalid
-/// volume, non-finite isovalue or points, triangle indices out of range,
-/// `density == 0`, tolerance not positive.
+/// `index_offset + (i, j, k)`). So the index points of a mesh extracted
+/// with an index offset are measured against a volume with the same
+/// [`Volume::index_offset`]; world points play no part. (The C API's
+/// `pmc_measure_distance` takes world points and no index offset: there,
+/// move the volume's origin by `spacing * offset` instead.) Triangles
+/// index `points`. Errors: invalid volume, non-finite isovalue or points,
+/// triangle indices out of range, `density` outside `1..=1024`, tolerance
+/// not positive. Runs on `options.threads` threads that are all joined
+/// before it returns.
 pub fn measure(
     volume: &Volume<'_>,
     isovalue: f64,
@@ -128,18 +134,24 @@ pub fn measure(
     } else {
         options.threads.min(crate::MAX_THREADS)
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::ThreadPool(e.to_string()))?;
     let off = volume.index_offset.map(|o| o as f64);
     let local: Vec<DVec3> = points
         .iter()
         .map(|p| DVec3::new(p[0] - off[0], p[1] - off[1], p[2] - off[2]))
         .collect();
-    Ok(crate::volume::with_grid!(volume, |grid| pool.install(
-        || { measure_grid(grid, isovalue, &local, triangles, options) }
-    )))
+    // A scoped pool, as the extraction's: its threads are joined before
+    // the call returns, so no thread outlives it (a host may unload the
+    // library right after).
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_scoped(
+            |thread| thread.run(),
+            |pool| {
+                crate::volume::with_grid!(volume, |grid| pool
+                    .install(|| measure_grid(grid, isovalue, &local, triangles, options)))
+            },
+        )
+        .map_err(|e| Error::ThreadPool(e.to_string()))
 }
 
 /// Per-triangle partial sums, combined in triangle order (deterministic).

@@ -14,9 +14,51 @@ pub enum Error {
         /// The rejected dimension.
         value: u64,
     },
-    /// The number of samples does not fit in memory addressing.
+    /// The number of samples does not fit in memory addressing (more than
+    /// `isize::MAX`).
     #[error("dimensions {0:?} overflow the addressable sample count")]
     DimensionOverflow([u64; 3]),
+    /// A dimension is above [`crate::MAX_DIMENSION`] (2^40 samples).
+    #[error(
+        "dimension {axis} is {value}; the limit is 2^40 = {limit} samples per axis",
+        limit = crate::MAX_DIMENSION
+    )]
+    DimensionTooLarge {
+        /// Axis index (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The rejected dimension.
+        value: u64,
+    },
+    /// An index offset is outside `-2^31..=2^31` (see
+    /// [`crate::MAX_INDEX_OFFSET`]).
+    #[error(
+        "index offset {axis} is {value}; index offsets must lie in \
+         -{limit}..={limit} (2^31)",
+        limit = crate::MAX_INDEX_OFFSET
+    )]
+    InvalidIndexOffset {
+        /// Axis index (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The rejected offset, in samples.
+        value: i64,
+    },
+    /// The world coordinate of the volume's first or last sample along an
+    /// axis, `origin + spacing * index`, is not finite (it overflows).
+    #[error(
+        "the world coordinate {axis} of global index {index}, origin {origin} + \
+         spacing {spacing} * {index}, is not finite"
+    )]
+    WorldOverflow {
+        /// Axis index (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The global sample index (index offset included) whose world
+        /// coordinate overflows.
+        index: i64,
+        /// The volume's origin on that axis.
+        origin: f64,
+        /// The volume's spacing on that axis.
+        spacing: f64,
+    },
     /// A spacing is zero, negative or not finite.
     #[error("spacing {axis} is {value}; spacings must be finite and > 0")]
     InvalidSpacing {
@@ -56,8 +98,9 @@ pub enum Error {
     /// The maximum refinement level is above [`crate::MAX_LEVEL_LIMIT`].
     #[error("max level {0} is above the limit of {limit}", limit = crate::MAX_LEVEL_LIMIT)]
     InvalidMaxLevel(u32),
-    /// A memory reservation failed.
-    #[error("out of memory while reserving {0} bytes")]
+    /// A memory reservation of this many bytes failed (`usize::MAX` when
+    /// the size itself overflows).
+    #[error("out of memory while reserving {}", reserved_bytes(*.0))]
     OutOfMemory(usize),
     /// The progress callback asked to stop.
     #[error("aborted by the progress callback")]
@@ -86,4 +129,14 @@ pub enum Error {
     /// Invalid input to [`crate::accuracy::measure`] (the reason).
     #[error("invalid mesh or settings for the distance measure: {0}")]
     InvalidMeasure(&'static str),
+}
+
+/// The size in an out-of-memory message: sizes are saturated, so
+/// `usize::MAX` stands for one beyond the address space.
+fn reserved_bytes(n: usize) -> String {
+    if n == usize::MAX {
+        "more bytes than the address space holds".to_string()
+    } else {
+        format!("{n} bytes")
+    }
 }

@@ -658,7 +658,6 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
             chosen = l;
         }
         max_level = chosen as u32;
-        stats.budget_reached = true;
         outs = pass(max_level, Mode::Output { cap: u64::MAX }, (0.6, 0.35))?;
         // The count is exact in the usual case, but near ties welding can
         // make the output differ a little; the cap is a promise, so step
@@ -672,6 +671,10 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
         }
     }
     stats.effective_max_level = max_level;
+    // The cap lowered the level refinement was asked to reach (with
+    // refinement off, a cap below the Marching Cubes count changes
+    // nothing: those triangles are always kept).
+    stats.budget_reached = refine && max_level < options.max_level;
 
     let t_asm = Instant::now();
     let passes_wall = (t_asm - start).as_secs_f64();
@@ -1816,6 +1819,7 @@ mod tests {
 
     #[test]
     fn unrefined_output_is_the_same_for_any_slab_cut() {
+        crate::volume::test_offset_limit::raise();
         // Without refinement, points strictly inside grid edges are welded
         // by the edge caches alone (no map): every cut into slabs and every
         // thread count must still give the same mesh, with no two points at
@@ -1877,6 +1881,7 @@ mod tests {
 
     #[test]
     fn flat_triangles_are_found_without_looking_at_every_one() {
+        crate::volume::test_offset_limit::raise();
         // The unrefined pass looks for triangles lying in a grid plane only
         // in cells whose table triangles have three points on one face, or
         // once a point sat on a grid point; its debug check fails the test

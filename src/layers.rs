@@ -56,9 +56,11 @@ pub(crate) struct LayerScratch {
 /// Bytes of the buffers of a [`LayerScratch`] for layers of `nx` x `ny`
 /// cells (the inside bits and the edge caches; the per-row flags and case
 /// indices are a few bytes a row).
+/// Saturating, so that the message of a failed reservation of a huge
+/// layer tells a size beyond the address space rather than a wrapped one.
 fn scratch_bytes(nx: usize, ny: usize) -> usize {
-    let layer = (ny + 1) * (nx + 1);
-    2 * layer + 8 * 5 * layer
+    let layer = (ny.saturating_add(1)).saturating_mul(nx.saturating_add(1));
+    layer.saturating_mul(2 + 8 * 5)
 }
 
 /// For a cell layer of z parity `p`, each cell edge's slot in
@@ -97,12 +99,13 @@ impl LayerScratch {
     /// Buffers for layers of `nx` x `ny` cells, or the bytes that could
     /// not be allocated.
     fn new(nx: usize, ny: usize) -> Result<Self, usize> {
-        let layer = (ny + 1) * (nx + 1);
         let s = (|| {
+            // Checked: a layer too large to address cannot be allocated.
+            let layer = (ny + 1).checked_mul(nx + 1)?;
             Some(LayerScratch {
                 insides: [filled(layer, 0)?, filled(layer, 0)?],
                 finite: [filled(ny + 1, true)?, filled(ny + 1, true)?],
-                edges: filled(5 * layer, EMPTY)?,
+                edges: filled(layer.checked_mul(5)?, EMPTY)?,
                 cases: filled(nx, 0)?,
                 next_stamp: 0,
                 dims: (nx, ny),
@@ -182,6 +185,16 @@ fn filled<T: Clone>(n: usize, value: T) -> Option<Vec<T>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A layer too large to address reports a saturated size, not a
+    /// wrapped one (2^30 x 2^30 cells once read as about 1.15e19 bytes).
+    #[test]
+    fn huge_layers_saturate_their_size() {
+        assert_eq!(scratch_bytes(3, 1), 42 * 8);
+        let n = (1usize << 30) - 1;
+        assert_eq!(scratch_bytes(n, n), usize::MAX);
+        assert_eq!(LayerScratch::new(n, n).err(), Some(usize::MAX));
+    }
 
     #[test]
     fn entries_match_only_their_stamp() {

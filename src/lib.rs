@@ -79,7 +79,7 @@ pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THR
 pub use mesh::{Mesh, Stats};
 pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
 pub use recycle::{release_retained_memory, retained_bytes, RETAIN_LIMIT};
-pub use volume::{Samples, Scalar, ScalarType, Volume};
+pub use volume::{Samples, Scalar, ScalarType, Volume, MAX_DIMENSION, MAX_INDEX_OFFSET};
 
 /// Highest accepted `max_level`. Each level can multiply a triangle by 4,
 /// and levels beyond 10 only add triangles far below any useful epsilon.

@@ -49,7 +49,10 @@ pub struct Stats {
     /// cell's faces; 0 with refinement off, below max level 3, with
     /// classic topology or a cubic filter.
     pub cells_on_subcells: u64,
-    /// Whether the triangle cap stopped refinement below `max_level`.
+    /// Whether the triangle cap stopped refinement below `max_level`
+    /// (`effective_max_level < max_level`). Never with refinement off
+    /// (`epsilon` or `max_level` 0): the Marching Cubes triangles are
+    /// always kept, whatever the cap, and no level is lowered.
     pub budget_reached: bool,
     /// The refinement level actually used (below `max_level` when the cap
     /// was reached).

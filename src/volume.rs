@@ -127,13 +127,14 @@ impl_from_slice!(i8 => I8, u8 => U8, i16 => I16, u16 => U16, i32 => I32, u32 => 
 pub struct Volume<'a> {
     /// The samples.
     pub samples: Samples<'a>,
-    /// Number of samples per axis (each >= 2).
+    /// Number of samples per axis (each in `2..=`[`MAX_DIMENSION`]).
     pub dims: [u64; 3],
     /// Element strides per axis (may be negative with a matching offset).
     pub strides: [i64; 3],
     /// Element index of local sample (0, 0, 0).
     pub offset: u64,
-    /// Global index of local sample (0, 0, 0) (VTK's extent start).
+    /// Global index of local sample (0, 0, 0) (VTK's extent start), in
+    /// samples; each within ±[`MAX_INDEX_OFFSET`]. Default 0.
     pub index_offset: [i64; 3],
     /// World position of global index (0, 0, 0). Default 0.
     pub origin: [f64; 3],
@@ -152,15 +153,68 @@ pub(crate) fn index_to_world(origin: [f64; 3], spacing: [f64; 3], p: [f64; 3]) -
     ]
 }
 
+/// Largest accepted number of samples per axis (2^40).
+pub const MAX_DIMENSION: u64 = 1 << 40;
+
+/// Largest accepted magnitude of an index offset per axis (2^31): offsets
+/// lie in `-MAX_INDEX_OFFSET..=MAX_INDEX_OFFSET`, which holds every VTK
+/// extent (32-bit integers).
+///
+/// Index points are global `f64` coordinates with the offset included (so
+/// that pieces of one volume give bit-identical points where they meet):
+/// the farther from 0, the coarser they are rounded, up to 2^-21 cells at
+/// 2^31. Within this range Marching Cubes gives the mesh of offset 0 moved
+/// by the offset, triangle for triangle, and refined meshes are as close
+/// to the isosurface as at offset 0; they are not always the same
+/// triangles, since a refinement decision near a tie can go the other way
+/// on the coarser coordinates. Beyond, the rounding degrades refinement
+/// (at 2^50 a sphere's largest radius error tripled).
+pub const MAX_INDEX_OFFSET: i64 = 1 << 31;
+
+/// The accepted magnitude of an index offset: [`MAX_INDEX_OFFSET`], but
+/// unit tests of the paths that handle coarsely rounded points (points of
+/// distinct cells that round together, reachable at offset 0 only with
+/// dims near 2^40) raise it on their thread to reach them with small
+/// volumes far out.
+fn offset_limit() -> u64 {
+    #[cfg(test)]
+    if let Some(l) = test_offset_limit::LIMIT.with(|l| l.get()) {
+        return l;
+    }
+    MAX_INDEX_OFFSET as u64
+}
+
+#[cfg(test)]
+pub(crate) mod test_offset_limit {
+    thread_local! {
+        /// This thread's override of the index offset limit.
+        pub(crate) static LIMIT: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+    }
+
+    /// Accepts index offsets up to 2^50 on this thread (the limit before
+    /// offsets were capped at 2^31).
+    pub(crate) fn raise() {
+        LIMIT.with(|l| l.set(Some(1 << 50)));
+    }
+}
+
+/// Contiguous strides (x fastest) for `dims`. When they overflow `i64`,
+/// `i64::MAX` stands in for the stride that overflows (not 0, which would
+/// read as aliasing): such dims hold more samples than `isize::MAX`, which
+/// [`Volume::validate`] reports before it looks at strides.
+fn contiguous_strides(dims: [u64; 3]) -> [i64; 3] {
+    let dx = i64::try_from(dims[0]).ok();
+    let dxy = dx.and_then(|dx| dx.checked_mul(i64::try_from(dims[1]).ok()?));
+    [1, dx.unwrap_or(i64::MAX), dxy.unwrap_or(i64::MAX)]
+}
+
 impl<'a> Volume<'a> {
     /// A contiguous volume (x fastest) with origin 0 and spacing 1.
     pub fn new(samples: impl Into<Samples<'a>>, dims: [u64; 3]) -> Self {
-        let dx = dims[0] as i64;
-        let dy = dims[1] as i64;
         Volume {
             samples: samples.into(),
             dims,
-            strides: [1, dx, dx.wrapping_mul(dy)],
+            strides: contiguous_strides(dims),
             offset: 0,
             index_offset: [0; 3],
             origin: [0.0; 3],
@@ -172,9 +226,7 @@ impl<'a> Volume<'a> {
     /// stride on some axes only is rejected by [`Volume::validate`].
     pub fn with_strides(mut self, strides: [i64; 3]) -> Self {
         if strides == [0, 0, 0] {
-            let dx = self.dims[0] as i64;
-            let dy = self.dims[1] as i64;
-            self.strides = [1, dx, dx.wrapping_mul(dy)];
+            self.strides = contiguous_strides(self.dims);
         } else {
             self.strides = strides;
         }
@@ -187,7 +239,11 @@ impl<'a> Volume<'a> {
         self
     }
 
-    /// Sets the global index of local sample (0, 0, 0).
+    /// Sets the global index of local sample (0, 0, 0), in samples per
+    /// axis (VTK's extent start); default 0. Each must lie within
+    /// `-MAX_INDEX_OFFSET..=MAX_INDEX_OFFSET` (±2^31, see
+    /// [`MAX_INDEX_OFFSET`]), else [`Volume::validate`] fails with
+    /// [`Error::InvalidIndexOffset`].
     pub fn with_index_offset(mut self, index_offset: [i64; 3]) -> Self {
         self.index_offset = index_offset;
         self
@@ -218,8 +274,8 @@ impl<'a> Volume<'a> {
             .saturating_mul(z.saturating_sub(1))
     }
 
-    /// Checks dims, spacing, origin and that every addressed element lies in
-    /// the buffer.
+    /// Checks dims, spacing, origin, index offset, that the world box is
+    /// finite and that every addressed element lies in the buffer.
     pub fn validate(&self) -> Result<(), Error> {
         for a in 0..3 {
             if self.dims[a] < 2 {
@@ -238,17 +294,48 @@ impl<'a> Volume<'a> {
                     value: self.origin[a],
                 });
             }
-            if self.dims[a] > (1u64 << 40) || self.index_offset[a].unsigned_abs() > (1u64 << 50) {
-                return Err(Error::DimensionOverflow(self.dims));
+            if self.dims[a] > MAX_DIMENSION {
+                return Err(Error::DimensionTooLarge {
+                    axis: a,
+                    value: self.dims[a],
+                });
+            }
+            if self.index_offset[a].unsigned_abs() > offset_limit() {
+                return Err(Error::InvalidIndexOffset {
+                    axis: a,
+                    value: self.index_offset[a],
+                });
+            }
+        }
+        // Before the strides: contiguous strides of dims this large have
+        // overflowed (see `contiguous_strides`).
+        let total = (self.dims[0] as u128) * (self.dims[1] as u128) * (self.dims[2] as u128);
+        if total > (isize::MAX as u128) {
+            return Err(Error::DimensionOverflow(self.dims));
+        }
+        // Every point of the mesh lies in the box of global indices
+        // `index_offset ..= index_offset + dims - 1`, and its world
+        // coordinate `origin + spacing * p` grows with `p`: finite at both
+        // ends means finite everywhere.
+        for a in 0..3 {
+            let first = self.index_offset[a];
+            // No overflow: |first| <= 2^31 and dims <= 2^40.
+            let last = first + (self.dims[a] - 1) as i64;
+            for index in [first, last] {
+                // As `index_to_world` computes it.
+                if !(self.origin[a] + self.spacing[a] * index as f64).is_finite() {
+                    return Err(Error::WorldOverflow {
+                        axis: a,
+                        index,
+                        origin: self.origin[a],
+                        spacing: self.spacing[a],
+                    });
+                }
             }
         }
         // A zero stride would read one sample for a whole axis.
         if self.strides.contains(&0) {
             return Err(Error::InvalidStrides(self.strides));
-        }
-        let total = (self.dims[0] as u128) * (self.dims[1] as u128) * (self.dims[2] as u128);
-        if total > (isize::MAX as u128) {
-            return Err(Error::DimensionOverflow(self.dims));
         }
         // Smallest and largest element index over the box: the extremes are
         // at corners, per axis independently.

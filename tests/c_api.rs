@@ -521,6 +521,43 @@ fn errors_map_to_statuses_with_messages() {
         last_error()
     );
     cv.len += 1;
+    // An index offset beyond ±2^31: its own message, naming axis and value.
+    let o = pmc_options_new();
+    for (axis, value) in [(2, PMC_MAX_INDEX_OFFSET + 1), (0, i64::MIN)] {
+        let mut off = [0i64; 3];
+        off[axis] = value;
+        assert_eq!(
+            unsafe { pmc_options_set_index_offset(o, off.as_ptr()) },
+            PmcStatus::Ok
+        );
+        assert_eq!(
+            c_extract(&cv, 2.0, o).err(),
+            Some(PmcStatus::InvalidArgument)
+        );
+        assert_eq!(
+            last_error(),
+            format!(
+                "invalid options: index offset {axis} is {value}; index offsets must lie in \
+                 -2147483648..=2147483648 (2^31) (pmc_options_set_index_offset)"
+            )
+        );
+    }
+    let off = [PMC_MAX_INDEX_OFFSET, -PMC_MAX_INDEX_OFFSET, 0];
+    assert_eq!(
+        unsafe { pmc_options_set_index_offset(o, off.as_ptr()) },
+        PmcStatus::Ok
+    );
+    assert!(c_extract(&cv, 2.0, o).is_ok());
+    unsafe { pmc_options_free(o) };
+    // A world box that overflows.
+    let mut huge = cv;
+    huge.origin[0] = 1e308;
+    huge.spacing[0] = 1e308;
+    assert_eq!(
+        c_extract(&huge, 2.0, ptr::null()).err(),
+        Some(PmcStatus::InvalidArgument)
+    );
+    assert!(last_error().contains("is not finite"), "{}", last_error());
     cv.scalar_type = 77;
     assert_eq!(
         c_extract(&cv, 2.0, ptr::null()).err(),

@@ -56,3 +56,48 @@ fn the_cap_keeps_the_deepest_level_that_fits() {
         }
     }
 }
+
+/// `budget_reached` means the cap lowered the level refinement was asked
+/// to reach: with refinement off (max level 0, or epsilon 0) a cap below
+/// the Marching Cubes count lowers nothing, keeps every Marching Cubes
+/// triangle, and is not reported.
+#[test]
+fn a_cap_without_refinement_reaches_no_budget() {
+    let atoms = samples::atoms(18);
+    let v = atoms.volume();
+    let mc = extract(
+        &v,
+        atoms.isovalue,
+        &Options::marching_cubes(Default::default()),
+    )
+    .unwrap();
+    let cap = mc.triangles.len() as u64 / 2;
+    for off in [
+        Options {
+            max_level: 0,
+            ..Options::default()
+        },
+        Options {
+            epsilon: 0.0,
+            ..Options::default()
+        },
+    ] {
+        let o = Options {
+            max_triangles: cap,
+            ..off
+        };
+        let m = extract(&v, atoms.isovalue, &o).unwrap();
+        assert!(!m.stats.budget_reached, "{o:?}");
+        assert_eq!(m.stats.effective_max_level, 0);
+        assert_eq!(m.triangles, mc.triangles);
+    }
+    // Refinement asked for and the cap lowering it to level 0: reported.
+    let o = Options {
+        max_triangles: cap,
+        ..Options::default()
+    };
+    let m = extract(&v, atoms.isovalue, &o).unwrap();
+    assert!(m.stats.budget_reached);
+    assert_eq!(m.stats.effective_max_level, 0);
+    assert_eq!(m.triangles, mc.triangles);
+}

@@ -5,7 +5,9 @@
 mod common;
 
 use common::*;
-use precisemc::{extract, Error, Options, Topology, Volume, MAX_LEVEL_LIMIT};
+use precisemc::{
+    extract, Error, Options, Topology, Volume, MAX_DIMENSION, MAX_INDEX_OFFSET, MAX_LEVEL_LIMIT,
+};
 
 fn data() -> Vec<f64> {
     sphere([5, 5, 5], [2.0, 2.0, 2.0], 1.5)
@@ -150,12 +152,12 @@ fn out_of_bounds_buffers() {
 fn huge_dimensions_do_not_overflow() {
     let d = data();
     let r = extract(&Volume::new(&d, [u64::MAX, 2, 2]), 0.0, &Options::default());
-    assert!(
-        matches!(
-            r,
-            Err(Error::DimensionOverflow(_)) | Err(Error::OutOfBounds { .. })
-        ),
-        "{r:?}"
+    assert_eq!(
+        r,
+        Err(Error::DimensionTooLarge {
+            axis: 0,
+            value: u64::MAX
+        })
     );
     let r = extract(
         &Volume::new(&d, [1 << 30, 1 << 30, 1 << 30]),
@@ -169,12 +171,181 @@ fn huge_dimensions_do_not_overflow() {
         ),
         "{r:?}"
     );
+}
+
+/// The per-axis cap of 2^40 samples is named in its message.
+#[test]
+fn dimensions_above_the_cap_name_it() {
+    let d = data();
+    for axis in 0..3 {
+        let mut dims = [5u64, 5, 5];
+        dims[axis] = MAX_DIMENSION + 1;
+        let r = extract(&Volume::new(&d, dims), 0.0, &Options::default());
+        let e = Error::DimensionTooLarge {
+            axis,
+            value: MAX_DIMENSION + 1,
+        };
+        assert_eq!(r, Err(e.clone()));
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "dimension {axis} is 1099511627777; the limit is 2^40 = 1099511627776 \
+                 samples per axis"
+            )
+        );
+    }
+}
+
+/// Contiguous strides (all zero) of dims whose sample count overflows
+/// report the overflow, not an aliasing stride of 0 (their x*y stride
+/// once wrapped to 0).
+#[test]
+fn contiguous_strides_of_huge_dims_report_the_overflow() {
+    let d = data();
+    let dims = [1u64 << 33, 1 << 33, 2];
+    for v in [
+        Volume::new(&d, dims),
+        Volume::new(&d, dims).with_strides([0, 0, 0]),
+    ] {
+        assert!(!v.strides.contains(&0), "{:?}", v.strides);
+        let r = extract(&v, 0.0, &Options::default());
+        assert_eq!(r, Err(Error::DimensionOverflow(dims)));
+        assert!(r
+            .unwrap_err()
+            .to_string()
+            .contains("overflow the addressable sample count"));
+    }
+}
+
+/// Index offsets are accepted up to ±2^31 on each axis; beyond, the error
+/// names the axis and the value (no longer a dimension overflow).
+#[test]
+fn index_offsets_beyond_2_31_are_rejected() {
+    assert_eq!(MAX_INDEX_OFFSET, 1 << 31);
+    let d = data();
+    for axis in 0..3 {
+        for value in [
+            MAX_INDEX_OFFSET + 1,
+            -MAX_INDEX_OFFSET - 1,
+            1 << 50,
+            i64::MAX,
+            i64::MIN,
+        ] {
+            let mut off = [3i64, -4, 5];
+            off[axis] = value;
+            let r = extract(
+                &Volume::new(&d, [5, 5, 5]).with_index_offset(off),
+                0.0,
+                &Options::default(),
+            );
+            let e = Error::InvalidIndexOffset { axis, value };
+            assert_eq!(r, Err(e.clone()));
+            assert_eq!(
+                e.to_string(),
+                format!(
+                    "index offset {axis} is {value}; index offsets must lie in \
+                     -2147483648..=2147483648 (2^31)"
+                )
+            );
+        }
+        for value in [MAX_INDEX_OFFSET, -MAX_INDEX_OFFSET] {
+            let mut off = [0i64; 3];
+            off[axis] = value;
+            let v = Volume::new(&d, [5, 5, 5]).with_index_offset(off);
+            assert!(extract(&v, 0.0, &Options::default()).is_ok());
+        }
+    }
+}
+
+/// The world box must be finite: `origin + spacing * index` at the first
+/// and last global index of each axis (points came out infinite).
+#[test]
+fn world_box_must_be_finite() {
+    let d = data();
+    let v = Volume::new(&d, [5, 5, 5]);
     let r = extract(
-        &Volume::new(&d, [5, 5, 5]).with_index_offset([i64::MIN, 0, 0]),
+        &v.with_origin([1e308, 0.0, 0.0])
+            .with_spacing([1e308, 1.0, 1.0]),
         0.0,
         &Options::default(),
     );
-    assert!(matches!(r, Err(Error::DimensionOverflow(_))), "{r:?}");
+    let e = Error::WorldOverflow {
+        axis: 0,
+        index: 4,
+        origin: 1e308,
+        spacing: 1e308,
+    };
+    assert_eq!(r, Err(e.clone()));
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "the world coordinate 0 of global index 4, origin {} + spacing {} * 4, \
+             is not finite",
+            1e308, 1e308
+        )
+    );
+    // The first index overflows too, with an index offset (negative here).
+    let r = extract(
+        &v.with_spacing([1.0, 1.0, 1e300])
+            .with_index_offset([0, 0, -MAX_INDEX_OFFSET]),
+        0.0,
+        &Options::default(),
+    );
+    assert!(
+        matches!(r, Err(Error::WorldOverflow { axis: 2, index, .. }) if index == -MAX_INDEX_OFFSET),
+        "{r:?}"
+    );
+    // Up to the largest finite coordinate is fine.
+    let r = extract(
+        &v.with_spacing([1.0, f64::MAX / 4.0, 1.0]),
+        0.0,
+        &Options::default(),
+    );
+    let m = r.unwrap();
+    assert!(m.points.iter().flatten().all(|c| c.is_finite()));
+}
+
+/// A reservation too large for the address space says so, instead of a
+/// wrapped byte count: 2^30 x 2^30 x 2 one-byte samples, aliased onto
+/// 2^31 bytes of address space that is reserved and never touched
+/// (strides 1, 1, 1), whose cell layer's scratch (about 42 bytes a
+/// sample) once read "reserving 11529215046068469760 bytes".
+#[cfg(target_os = "linux")]
+#[test]
+fn out_of_memory_reports_a_true_size() {
+    let n = 1u64 << 30;
+    let len = 2 * n as usize; // the highest index is (n-1) + (n-1) + 1
+                              // SAFETY: an anonymous private read-only mapping, unmapped below.
+    let p = unsafe {
+        libc::mmap(
+            std::ptr::null_mut(),
+            len,
+            libc::PROT_READ,
+            libc::MAP_PRIVATE | libc::MAP_ANONYMOUS | libc::MAP_NORESERVE,
+            -1,
+            0,
+        )
+    };
+    assert_ne!(p, libc::MAP_FAILED);
+    // SAFETY: `len` readable bytes (zero pages on read).
+    let d: &[u8] = unsafe { std::slice::from_raw_parts(p.cast(), len) };
+    let v = Volume::new(d, [n, n, 2]).with_strides([1, 1, 1]);
+    let o = Options {
+        threads: 1,
+        ..Options::marching_cubes(Topology::Trilinear)
+    };
+    let r = extract(&v, 0.5, &o);
+    // SAFETY: the mapping above, no longer borrowed.
+    unsafe { libc::munmap(p, len) };
+    assert_eq!(r, Err(Error::OutOfMemory(usize::MAX)));
+    assert_eq!(
+        r.unwrap_err().to_string(),
+        "out of memory while reserving more bytes than the address space holds"
+    );
+    assert_eq!(
+        Error::OutOfMemory(1 << 20).to_string(),
+        "out of memory while reserving 1048576 bytes"
+    );
 }
 
 #[test]

@@ -324,3 +324,122 @@ fn c_api_matches_rust() {
     );
     assert_eq!(out, pmc_distance::default(), "zeroed on failure");
 }
+
+/// `pmc_measure_distance` takes no index offset: the world points of a
+/// mesh extracted with one are measured against the volume with its origin
+/// moved by `spacing * offset` (with the origin unmoved they lie `offset`
+/// samples from their surface).
+#[test]
+fn c_api_measures_offset_meshes_with_a_moved_origin() {
+    let dims = [10, 9, 8];
+    let values = blobs(dims, 2, 6);
+    let spacing = [0.5, 2.0, 1.5];
+    let origin = [-3.0, 1.0, 7.0];
+    let offset = [100i64, -40, 3];
+    let vol = Volume::new(&values, dims_u64(dims))
+        .with_spacing(spacing)
+        .with_origin(origin);
+    let plain = extract(&vol, 0.0, &Options::default()).unwrap();
+    let moved = extract(&vol.with_index_offset(offset), 0.0, &Options::default()).unwrap();
+    let want = measure(
+        &vol,
+        0.0,
+        &plain.index_points,
+        &plain.triangles,
+        &MeasureOptions::default(),
+    )
+    .unwrap();
+    let run = |origin: [f64; 3]| {
+        let cv = pmc_volume {
+            data: values.as_ptr().cast(),
+            len: values.len() as u64,
+            scalar_type: 9,
+            dims: dims_u64(dims),
+            strides: [0; 3],
+            origin,
+            spacing,
+        };
+        let pts: Vec<f64> = moved.points.iter().flatten().copied().collect();
+        let tris: Vec<i64> = moved
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&v| v as i64)
+            .collect();
+        let mut out = pmc_distance::default();
+        let status = unsafe {
+            pmc_measure_distance(
+                &cv,
+                0.0,
+                pts.as_ptr(),
+                moved.points.len() as u64,
+                tris.as_ptr(),
+                moved.triangles.len() as u64,
+                0,
+                &mut out,
+            )
+        };
+        assert_eq!(status, PmcStatus::Ok);
+        out
+    };
+    let shifted = [0, 1, 2].map(|a| origin[a] + spacing[a] * offset[a] as f64);
+    let got = run(shifted);
+    let o = MeasureOptions::default();
+    let band = |d: f64| o.tolerance + o.relative_tolerance * d;
+    assert_eq!(got.samples, want.samples);
+    assert!(
+        (got.max - want.max).abs() <= band(want.max),
+        "{got:?} {want:?}"
+    );
+    assert!((got.mean - want.mean).abs() <= band(want.mean));
+    // The unmoved origin measures the mesh far from its surface.
+    assert!(run(origin).max > 10.0);
+}
+
+/// A finite point whose index coordinates overflow is outside the
+/// volume's representable index range, not a non-finite point.
+#[test]
+fn c_api_names_points_beyond_the_index_range() {
+    let values = [0.0f64; 8];
+    let mut cv = pmc_volume {
+        data: values.as_ptr().cast(),
+        len: 8,
+        scalar_type: 9,
+        dims: [2, 2, 2],
+        strides: [0; 3],
+        origin: [0.0; 3],
+        spacing: [1e-10, 1.0, 1.0],
+    };
+    let tri = [0i64, 1, 2];
+    let call = |cv: &pmc_volume, pts: &[f64; 9]| {
+        let mut out = pmc_distance::default();
+        let s =
+            unsafe { pmc_measure_distance(cv, 0.5, pts.as_ptr(), 3, tri.as_ptr(), 1, 0, &mut out) };
+        (s, last_error())
+    };
+    let far = [0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 1e300, 0.0, 0.0];
+    let (s, msg) = call(&cv, &far);
+    assert_eq!(s, PmcStatus::InvalidArgument);
+    assert!(
+        msg.contains("point 2 (") && msg.contains("outside the volume's representable index range"),
+        "{msg}"
+    );
+    let mut nan = far;
+    nan[6] = f64::NAN;
+    let (s, msg) = call(&cv, &nan);
+    assert_eq!(s, PmcStatus::InvalidArgument);
+    assert!(msg.contains("points must be finite"), "{msg}");
+    // A volume whose world box overflows is rejected first.
+    cv.origin[0] = 1e308;
+    cv.spacing[0] = 1e308;
+    let (s, msg) = call(&cv, &far);
+    assert_eq!(s, PmcStatus::InvalidArgument);
+    assert!(msg.contains("is not finite"), "{msg}");
+}
+
+/// The calling thread's last C error message.
+fn last_error() -> String {
+    let mut buf = vec![0u8; 4096];
+    let n = unsafe { precisemc::ffi::pmc_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
+    String::from_utf8_lossy(&buf[..n.min(buf.len() - 1)]).into_owned()
+}

@@ -35,15 +35,22 @@ pub struct pmc_distance {
 /// distance), not by the refinement's own projection.
 ///
 /// `points` holds `point_count` xyz triples in world coordinates, where
-/// sample `(i, j, k)` of `volume` lies at `origin + spacing * (i, j, k)`
-/// (give the points of a mesh extracted with an index offset relative to
-/// the same origin). `triangles` holds `triangle_count` triples of point
-/// ids. On success stores the statistics in `*out` and returns
-/// `PMC_STATUS_OK`; `*out` is zeroed on failure. Errors:
+/// sample `(i, j, k)` of `volume` lies at `origin + spacing * (i, j, k)`:
+/// this function takes no index offset (`pmc_options_set_index_offset`),
+/// it measures in the volume's own frame. The points of a mesh extracted
+/// with an index offset `o` lie at `origin + spacing * (o + (i, j, k))`:
+/// measure them against a copy of the volume whose `origin` is moved to
+/// `origin + spacing * o` per axis (with the unmoved origin they would be
+/// measured `o` samples away from their surface). `triangles` holds
+/// `triangle_count` triples of point ids. On success stores the
+/// statistics in `*out` and returns `PMC_STATUS_OK`; `*out` is zeroed on
+/// failure. Errors:
 /// `PMC_STATUS_NULL_ARGUMENT` for a `NULL` `volume`, `volume->data` or
 /// `out` (or `points`/`triangles` with a non-zero count);
 /// `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume, a non-finite
-/// isovalue or point, a point id out of range, or `density > 1024`;
+/// isovalue or point, a point outside the volume's representable index
+/// range (`(p - origin) / spacing` overflows), a point id out of range,
+/// or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
 /// made. Uses all cores; the result does not depend on their number.
 ///
@@ -82,8 +89,23 @@ pub unsafe extern "C" fn pmc_measure_distance(
         index_points
             .try_reserve_exact(pts.len() / 3)
             .map_err(|_| failure(crate::Error::OutOfMemory(pts.len() * 8)))?;
-        for p in pts.chunks_exact(3) {
-            index_points.push([0, 1, 2].map(|a| (p[a] - v.origin[a]) / v.spacing[a]));
+        for (i, p) in pts.chunks_exact(3).enumerate() {
+            if p.iter().any(|c| !c.is_finite()) {
+                return Err(failure(crate::Error::InvalidMeasure(
+                    "points must be finite",
+                )));
+            }
+            let q = [0, 1, 2].map(|a| (p[a] - v.origin[a]) / v.spacing[a]);
+            // A finite point far outside the volume can overflow in index
+            // space (a tiny spacing): not a NaN or infinite input.
+            if q.iter().any(|c| !c.is_finite()) {
+                return Err(Failure::invalid(format!(
+                    "point {i} ({}, {}, {}) is outside the volume's representable index \
+                     range: (point - origin) / spacing overflows",
+                    p[0], p[1], p[2]
+                )));
+            }
+            index_points.push(q);
         }
         let mut tris = Vec::new();
         tris.try_reserve_exact(ids.len() / 3)

@@ -113,7 +113,9 @@ pub struct pmc_stats {
     /// Mean refinement level over output triangles.
     pub mean_level: f64,
     /// 1 if the triangle cap stopped refinement below the requested max
-    /// level, else 0.
+    /// level (`effective_max_level` below it), else 0. Always 0 with
+    /// refinement off (epsilon or max level 0): the Marching Cubes
+    /// triangles are kept whatever the cap, and no level is lowered.
     pub budget_reached: u8,
     /// Wall time spent in Marching Cubes, seconds: the rest of the
     /// passes over the cells once `time_refine` is taken.

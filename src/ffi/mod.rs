@@ -58,7 +58,8 @@ pub use options::{
     pmc_options_set_executor, pmc_options_set_index_offset, pmc_options_set_max_level,
     pmc_options_set_max_triangles, pmc_options_set_normals, pmc_options_set_progress,
     pmc_options_set_reconstruction, pmc_options_set_rule, pmc_options_set_threads,
-    pmc_options_set_topology, pmc_progress_fn, PMC_MAX_LEVEL_LIMIT, PMC_MAX_THREADS,
+    pmc_options_set_topology, pmc_progress_fn, PMC_MAX_INDEX_OFFSET, PMC_MAX_LEVEL_LIMIT,
+    PMC_MAX_THREADS,
 };
 pub use status::{pmc_status, pmc_status_string, PmcStatus};
 pub use version::pmc_version_string;

@@ -18,6 +18,12 @@ const _: () = assert!(PMC_MAX_LEVEL_LIMIT == crate::MAX_LEVEL_LIMIT);
 /// Highest value accepted by `pmc_options_set_threads`.
 pub const PMC_MAX_THREADS: u32 = 4096;
 
+/// Largest magnitude of an index offset accepted by `pmc_extract` (2^31):
+/// each of the three offsets set with `pmc_options_set_index_offset` must
+/// lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`.
+pub const PMC_MAX_INDEX_OFFSET: i64 = 2_147_483_648;
+const _: () = assert!(PMC_MAX_INDEX_OFFSET == crate::MAX_INDEX_OFFSET);
+
 /// Progress callback: `fraction` goes from 0.0 to 1.0 and never decreases.
 /// Called on the thread that called `pmc_extract`, first with 0.0, then
 /// about every 20 ms (not in between for plain Marching Cubes of up to
@@ -431,8 +437,18 @@ pub unsafe extern "C" fn pmc_options_set_executor(
 /// meshed again on sub-cells drops its strip in a face whose neighbour is
 /// meshed again too only when the piece holds that neighbour.
 ///
-/// Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options or offset. Offsets
-/// beyond +/-2^50 are rejected by `pmc_extract`.
+/// Each offset must lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`
+/// (+/-2^31, which holds every VTK extent). Index points are global
+/// doubles with the offset included, rounded to at most 2^-21 cells in
+/// this range: Marching Cubes gives the mesh of offset 0 moved by the
+/// offset, triangle for triangle, and refined meshes are as close to the
+/// isosurface as at offset 0 (though a refinement decision near a tie may
+/// differ); farther offsets would round points coarsely enough to degrade
+/// the refinement. `pmc_extract`
+/// rejects an offset outside it with `PMC_STATUS_INVALID_ARGUMENT` and a
+/// message naming the axis and value; this setter stores any value.
+///
+/// Returns `PMC_STATUS_NULL_ARGUMENT` for `NULL` options or offset.
 ///
 /// # Safety
 ///

@@ -41,7 +41,9 @@ pub struct pmc_volume {
     /// World position of global sample index (0, 0, 0); finite.
     pub origin: [f64; 3],
     /// World distance between neighbouring samples along x, y and z;
-    /// finite and > 0.
+    /// finite and > 0. The world box must be finite too: on each axis,
+    /// `origin + spacing * index` must not overflow for the first and last
+    /// global sample index (`index_offset` and `index_offset + dims - 1`).
     pub spacing: [f64; 3],
 }
 
@@ -70,9 +72,13 @@ pub(crate) unsafe fn core_volume<'a>(
         .with_origin(v.origin)
         .with_spacing(v.spacing)
         .with_index_offset(index_offset);
-    volume
-        .validate()
-        .map_err(|e| Failure::invalid(format!("invalid volume: {e}")))?;
+    volume.validate().map_err(|e| match e {
+        // Not a field of the volume: an option.
+        crate::Error::InvalidIndexOffset { .. } => Failure::invalid(format!(
+            "invalid options: {e} (pmc_options_set_index_offset)"
+        )),
+        _ => Failure::invalid(format!("invalid volume: {e}")),
+    })?;
     Ok(volume)
 }
 

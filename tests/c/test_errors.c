@@ -187,12 +187,13 @@ static void test_extract_errors(void) {
     v = good;
     v.dims[0] = v.dims[1] = v.dims[2] = (uint64_t)1 << 22;
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+    /* Dimensions above the per-axis cap of 2^40: the message names it. */
     v.dims[0] = v.dims[1] = v.dims[2] = UINT64_MAX;
-    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "the limit is 2^40");
     v.dims[0] = UINT64_MAX / 2;
     v.dims[1] = 3;
     v.dims[2] = 2;
-    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "the limit is 2^40");
     v.dims[0] = (uint64_t)1 << 32;
     v.dims[1] = (uint64_t)1 << 32;
     v.dims[2] = 2;
@@ -262,14 +263,23 @@ static void test_extract_errors(void) {
     v.len = good.len - 1;
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "aligned");
 
-    /* Index offset out of range is rejected at extraction. */
+    /* Index offset out of range (beyond +/-PMC_MAX_INDEX_OFFSET) is
+     * rejected at extraction. */
     {
         int64_t off[3] = {0, (int64_t)1 << 60, 0};
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT,
+                    "index offset 1 is 1152921504606846976");
         off[1] = INT64_MIN;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "overflow");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is");
+        off[1] = PMC_MAX_INDEX_OFFSET + 1;
+        CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is 2147483649");
+        off[1] = -PMC_MAX_INDEX_OFFSET;
+        CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
+        CHECK_STATUS(pmc_extract(&good, 3.0, o, &m), PMC_STATUS_OK);
+        pmc_mesh_free(m);
         off[1] = -(int64_t)1000000;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
         CHECK_STATUS(pmc_extract(&good, 3.0, o, &m), PMC_STATUS_OK);

@@ -349,6 +349,23 @@ static void test_options_effects(void) {
     CHECK(s.output_triangles <= sd.output_triangles);
     CHECK(check_mesh(m, &v, 5));
     pmc_mesh_free(m);
+    /* With refinement off (max level 0 or epsilon 0) a cap below the
+     * Marching Cubes count lowers no level: the budget is not reached and
+     * the Marching Cubes triangles are all kept. */
+    CHECK_STATUS(pmc_options_set_max_triangles(o, 10), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_max_level(o, 0), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.budget_reached == 0 && s.effective_max_level == 0);
+    CHECK(s.output_triangles == sd.mc_triangles);
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_max_level(o, 5), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.0), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
+    CHECK(s.budget_reached == 0 && s.output_triangles == sd.mc_triangles);
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_epsilon(o, 0.01), PMC_STATUS_OK);
     CHECK_STATUS(pmc_options_set_max_triangles(o, 0), PMC_STATUS_OK);
 
     /* Any thread count gives the same mesh. */
