@@ -262,17 +262,8 @@ fn c_api_matches_rust() {
         &MeasureOptions::default(),
     )
     .unwrap();
-    let cv = pmc_volume {
-        data: values.as_ptr().cast(),
-        len: values.len() as u64,
-        scalar_type: 9,
-        dims: dims_u64(dims),
-        strides: [0; 3],
-        origin,
-        spacing,
-    };
-    let pts: Vec<f64> = mesh.points.iter().flatten().copied().collect();
-    let tris: Vec<i64> = mesh.triangles.iter().flatten().map(|&v| v as i64).collect();
+    let cv = c_volume(&values, dims, origin, spacing);
+    let (pts, tris) = c_mesh(&mesh);
     let mut out = pmc_distance::default();
     let call = |v: *const pmc_volume, p: *const f64, t: *const i64, o: *mut pmc_distance| unsafe {
         pmc_measure_distance(
@@ -290,15 +281,7 @@ fn c_api_matches_rust() {
         call(&cv, pts.as_ptr(), tris.as_ptr(), &mut out),
         PmcStatus::Ok
     );
-    assert_eq!(out.samples, want.samples);
-    // The C entry point takes world coordinates and converts them back to
-    // index space; points that move by a rounding error can end the
-    // certified search at another point of the tolerance band, so the two
-    // agree to within the certified tolerance (not to the last bit).
-    let o = MeasureOptions::default();
-    let band = |d: f64| o.tolerance + o.relative_tolerance * d;
-    assert!((out.max - want.max).abs() <= band(want.max));
-    assert!((out.mean - want.mean).abs() <= band(want.mean));
+    assert_within_band(&out, &want);
     assert_eq!(
         call(std::ptr::null(), pts.as_ptr(), tris.as_ptr(), &mut out),
         PmcStatus::NullArgument
@@ -349,23 +332,9 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
         &MeasureOptions::default(),
     )
     .unwrap();
+    let (pts, tris) = c_mesh(&moved);
     let run = |origin: [f64; 3]| {
-        let cv = pmc_volume {
-            data: values.as_ptr().cast(),
-            len: values.len() as u64,
-            scalar_type: 9,
-            dims: dims_u64(dims),
-            strides: [0; 3],
-            origin,
-            spacing,
-        };
-        let pts: Vec<f64> = moved.points.iter().flatten().copied().collect();
-        let tris: Vec<i64> = moved
-            .triangles
-            .iter()
-            .flatten()
-            .map(|&v| v as i64)
-            .collect();
+        let cv = c_volume(&values, dims, origin, spacing);
         let mut out = pmc_distance::default();
         let status = unsafe {
             pmc_measure_distance(
@@ -383,15 +352,7 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
         out
     };
     let shifted = [0, 1, 2].map(|a| origin[a] + spacing[a] * offset[a] as f64);
-    let got = run(shifted);
-    let o = MeasureOptions::default();
-    let band = |d: f64| o.tolerance + o.relative_tolerance * d;
-    assert_eq!(got.samples, want.samples);
-    assert!(
-        (got.max - want.max).abs() <= band(want.max),
-        "{got:?} {want:?}"
-    );
-    assert!((got.mean - want.mean).abs() <= band(want.mean));
+    assert_within_band(&run(shifted), &want);
     // The unmoved origin measures the mesh far from its surface.
     assert!(run(origin).max > 10.0);
 }
@@ -435,6 +396,42 @@ fn c_api_names_points_beyond_the_index_range() {
     let (s, msg) = call(&cv, &far);
     assert_eq!(s, PmcStatus::InvalidArgument);
     assert!(msg.contains("is not finite"), "{msg}");
+}
+
+/// The C API's view of a contiguous float64 volume.
+fn c_volume(values: &[f64], dims: [usize; 3], origin: [f64; 3], spacing: [f64; 3]) -> pmc_volume {
+    pmc_volume {
+        data: values.as_ptr().cast(),
+        len: values.len() as u64,
+        scalar_type: 9,
+        dims: dims_u64(dims),
+        strides: [0; 3],
+        origin,
+        spacing,
+    }
+}
+
+/// A mesh's world points and triangles as the C API takes them.
+fn c_mesh(mesh: &precisemc::Mesh) -> (Vec<f64>, Vec<i64>) {
+    let pts = mesh.points.iter().flatten().copied().collect();
+    let tris = mesh.triangles.iter().flatten().map(|&v| v as i64).collect();
+    (pts, tris)
+}
+
+/// The C entry point's result agrees with the Rust one: the same samples,
+/// and max and mean within the certified tolerance. (It takes world
+/// coordinates and converts them back to index space; points that move by
+/// a rounding error can end the certified search at another point of the
+/// tolerance band, so not to the last bit.)
+fn assert_within_band(got: &pmc_distance, want: &Distance) {
+    let o = MeasureOptions::default();
+    let band = |d: f64| o.tolerance + o.relative_tolerance * d;
+    assert_eq!(got.samples, want.samples);
+    assert!(
+        (got.max - want.max).abs() <= band(want.max),
+        "{got:?} {want:?}"
+    );
+    assert!((got.mean - want.mean).abs() <= band(want.mean));
 }
 
 /// The calling thread's last C error message.
