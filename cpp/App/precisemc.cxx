@@ -554,7 +554,9 @@ int main(int argc, char* argv[])
         table << Row("time", times);
         if (!output.empty())
         {
-          table << Row("written", output);
+          // The destination: the file is renamed there once the whole run
+          // has succeeded (a later failure leaves nothing behind).
+          table << Row("output file", output);
         }
         std::cout << table.str() << std::flush;
       }
