@@ -156,10 +156,15 @@ pub(crate) fn assemble(
             if r.is_empty() {
                 // Numbered by a shift alone: the loop the compiler widens
                 // well (most volumes' slabs, and every single slab).
-                for (w, (t, g)) in o.tris.iter().zip(tri_out.iter_mut()).enumerate() {
-                    *g = t.map(|v| (start + v as usize) as u64);
+                // Widened as flat arrays of ids, which the compiler turns
+                // into vector code (not so the triples).
+                let start = start as u64;
+                for (g, &v) in flat_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
+                    *g = start + v as u64;
+                }
+                for (w, t) in o.tris.iter().enumerate() {
                     if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                        note(w, *g);
+                        note(w, tri_out[w]);
                     }
                 }
             } else {
@@ -236,6 +241,19 @@ pub(crate) fn assemble(
         levels,
         ..Mesh::default()
     })
+}
+
+/// The ids of `triangles` in one run (`<[T; 3]>::as_flattened`, which is
+/// newer than the crate's minimum Rust).
+fn flat<T>(triangles: &[[T; 3]]) -> &[T] {
+    // SAFETY: an array of arrays is laid out as one array, without padding.
+    unsafe { std::slice::from_raw_parts(triangles.as_ptr().cast(), triangles.len() * 3) }
+}
+
+/// [`flat`], mutable.
+fn flat_mut<T>(triangles: &mut [[T; 3]]) -> &mut [T] {
+    // SAFETY: as in `flat`; the borrow is handed on whole.
+    unsafe { std::slice::from_raw_parts_mut(triangles.as_mut_ptr().cast(), triangles.len() * 3) }
 }
 
 /// Removes the points no triangle uses, keeping the others' order.
