@@ -154,10 +154,9 @@ pub(crate) fn assemble(
                 }
             };
             if r.is_empty() {
-                // Numbered by a shift alone: the loop the compiler widens
-                // well (most volumes' slabs, and every single slab).
-                // Widened as flat arrays of ids, which the compiler turns
-                // into vector code (not so the triples).
+                // Numbered by a shift alone (most volumes' slabs, and every
+                // single slab): the ids are shifted as flat arrays, which
+                // the compiler turns into vector code (not so the triples).
                 let start = start as u64;
                 for (g, &v) in flat_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
                     *g = start + v as u64;
