@@ -31,6 +31,24 @@ ensure_rust() {
     fi
 }
 
+# Warns when the disk holding the project has less free space than a full
+# test run writes (about 9 GiB of build output): a full disk otherwise shows
+# up as compiler crashes in every later stage, far from the cause.
+# Environment: PMC_MIN_FREE_GIB (default 10).
+check_free_space() {
+    local root need free_kib
+    root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+    need="${PMC_MIN_FREE_GIB:-10}"
+    free_kib="$(df -Pk "$root" 2>/dev/null | awk 'NR == 2 { print $4 }')"
+    [ -n "$free_kib" ] || return 0
+    if [ "$free_kib" -lt $((need * 1024 * 1024)) ]; then
+        echo "warning: only $((free_kib / 1024 / 1024)) GiB free on the disk of $root;" \
+            "a full test run writes about 9 GiB (target/, build/). Free some space" \
+            "(e.g. 'cargo clean', old clones) if the build fails with 'No space left on device'." >&2
+    fi
+    return 0
+}
+
 # The VTK side adds the Python headers and make to the list above, and
 # Mesa's software OpenGL driver, which the pictures render with under Xvfb.
 PMC_DEBIAN_PACKAGES+=(make python3-dev libgl1-mesa-dri)

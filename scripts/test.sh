@@ -22,6 +22,7 @@ stage() {
     fi
 }
 
+check_free_space
 ensure_packages
 ensure_rust
 
