@@ -12,6 +12,10 @@
 #include <cstring>
 #include <sstream>
 
+#include <climits>
+#include <csignal>
+#include <cstdlib>
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -23,6 +27,52 @@ namespace
 
 std::vector<std::string> CapturedErrors;
 std::vector<std::string> CapturedWarnings;
+
+// The temporaries of the run not yet committed, for the signal handler
+// below: plain C strings in a fixed table (a handler may only read them
+// and call unlink). A slot is cleared before its string is freed.
+constexpr int MaxPending = 256;
+char* volatile PendingNames[MaxPending];
+
+void RemovePendingAndDie(int sig)
+{
+  for (int i = 0; i < MaxPending; ++i)
+  {
+    const char* name = PendingNames[i];
+    if (name)
+    {
+      unlink(name);
+    }
+  }
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+void RegisterPending(const std::string& tmp)
+{
+  for (int i = 0; i < MaxPending; ++i)
+  {
+    if (!PendingNames[i])
+    {
+      PendingNames[i] = strdup(tmp.c_str());
+      return;
+    }
+  }
+}
+
+void UnregisterPending(const std::string& tmp)
+{
+  for (int i = 0; i < MaxPending; ++i)
+  {
+    char* name = PendingNames[i];
+    if (name && tmp == name)
+    {
+      PendingNames[i] = nullptr;
+      std::free(name);
+      return;
+    }
+  }
+}
 
 // "ERROR: In /path/vtkFoo.cxx, line 12\nvtkFoo (0x55d0): Cannot open file\n\n"
 // -> "Cannot open file".
@@ -237,9 +287,23 @@ void CheckWritable(const std::string& path, const std::string& what)
   }
 }
 
+std::string CanonicalPath(const std::string& path)
+{
+  size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  char* dir = realpath(DirectoryOf(path).c_str(), nullptr);
+  if (!dir)
+  {
+    return path;
+  }
+  std::string out = dir;
+  std::free(dir);
+  return (out == "/" ? out : out + "/") + name;
+}
+
 std::string TemporaryPathFor(const std::string& path)
 {
-  std::string dir = DirectoryOf(path);
+  static unsigned long counter = 0;
   size_t slash = path.find_last_of('/');
   std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
   std::string prefix = slash == std::string::npos ? "" : path.substr(0, slash + 1);
@@ -247,7 +311,28 @@ std::string TemporaryPathFor(const std::string& path)
   // to a name that does not end with it.
   std::string ext = Extension(name);
   std::string stem = name.substr(0, name.size() - ext.size());
-  return prefix + "." + stem + ".tmp" + std::to_string(static_cast<long>(getpid())) + ext;
+  std::string tag =
+    ".tmp" + std::to_string(static_cast<long>(getpid())) + "-" + std::to_string(++counter);
+  // A name that fits may not fit with the dot and the tag added: the
+  // stem is shortened instead (the tag keeps the names apart).
+  const size_t maxName = NAME_MAX;
+  if (1 + stem.size() + tag.size() + ext.size() > maxName)
+  {
+    stem.resize(maxName > 1 + tag.size() + ext.size() ? maxName - 1 - tag.size() - ext.size() : 0);
+  }
+  return prefix + "." + stem + tag + ext;
+}
+
+std::string BestError(const std::vector<std::string>& errors)
+{
+  for (const std::string& e : errors)
+  {
+    if (e.find("returned failure for request") == std::string::npos)
+    {
+      return e;
+    }
+  }
+  return std::string();
 }
 
 void CommitFile(const std::string& tmp, const std::string& path)
@@ -265,11 +350,28 @@ void RemoveFile(const std::string& path)
   std::remove(path.c_str());
 }
 
+PendingFiles::PendingFiles()
+{
+  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT })
+  {
+    struct sigaction action = {};
+    action.sa_handler = RemovePendingAndDie;
+    sigemptyset(&action.sa_mask);
+    // Not for a signal the caller ignores (nohup).
+    struct sigaction old = {};
+    if (sigaction(sig, nullptr, &old) == 0 && old.sa_handler != SIG_IGN)
+    {
+      sigaction(sig, &action, nullptr);
+    }
+  }
+}
+
 PendingFiles::~PendingFiles()
 {
   for (const File& f : this->Files)
   {
     RemoveFile(f.Temporary);
+    UnregisterPending(f.Temporary);
   }
 }
 
@@ -279,6 +381,7 @@ std::string PendingFiles::Add(const std::string& path)
   f.Path = path;
   f.Temporary = TemporaryPathFor(path);
   this->Files.push_back(f);
+  RegisterPending(f.Temporary);
   return f.Temporary;
 }
 
@@ -291,6 +394,13 @@ void PendingFiles::Commit()
   {
     File f = this->Files.front();
     this->Files.erase(this->Files.begin());
+    // Unregistered after the rename (an interrupt in between unlinks a
+    // name that is gone), or after the failed rename removed it.
+    struct Unregister
+    {
+      const std::string& Temporary;
+      ~Unregister() { UnregisterPending(this->Temporary); }
+    } unregister{ f.Temporary };
     CommitFile(f.Temporary, f.Path);
   }
 }

@@ -65,9 +65,20 @@ bool IsRegularFile(const std::string& path);
 // and is writable, and path is not a directory.
 void CheckWritable(const std::string& path, const std::string& what);
 
+// The file path names, for telling two spellings of one file apart:
+// its directory resolved (links, "." and "..") joined to its name; the
+// path itself when the directory cannot be resolved.
+std::string CanonicalPath(const std::string& path);
+
 // A temporary file name next to path (same directory), to write to and
-// then rename onto path: nothing is half-written.
+// then rename onto path: nothing is half-written. Unique within the run
+// (a counter) and short enough for any file name that fits.
 std::string TemporaryPathFor(const std::string& path);
+
+// The most telling of a writer's captured errors; empty when there is
+// none but the pipeline's own "returned failure for request" dump, which
+// says nothing of the cause (the writer's error code may).
+std::string BestError(const std::vector<std::string>& errors);
 
 // Renames tmp onto path; removes tmp and throws Error on failure.
 void CommitFile(const std::string& tmp, const std::string& path);
@@ -79,11 +90,12 @@ void RemoveFile(const std::string& path);
 // and renamed onto it by Commit() only once the whole run has succeeded:
 // a failure late in the run (a picture, the last sample) must not leave
 // the earlier outputs behind. The destructor removes the temporaries not
-// committed.
+// committed, and so does an interrupt (SIGINT, SIGTERM, SIGHUP, SIGQUIT)
+// before the tool dies of it.
 class PendingFiles
 {
 public:
-  PendingFiles() = default;
+  PendingFiles();
   ~PendingFiles();
   PendingFiles(const PendingFiles&) = delete;
   PendingFiles& operator=(const PendingFiles&) = delete;

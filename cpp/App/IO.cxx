@@ -6,19 +6,25 @@
 #include "Common.h"
 
 #include "vtkAlgorithm.h"
-#include "vtkDICOMImageReader.h"
+#include "vtkCellArray.h"
 #include "vtkDataArray.h"
+#include "vtkDICOMImageReader.h"
+#include "vtkDoubleArray.h"
+#include "vtkErrorCode.h"
+#include "vtkFloatArray.h"
 #include "vtkImageData.h"
 #include "vtkImageReader2.h"
+#include "vtkInformation.h"
 #include "vtkMetaImageReader.h"
-#include "vtkNIFTIImageReader.h"
 #include "vtkNew.h"
+#include "vtkNIFTIImageReader.h"
 #include "vtkNrrdReader.h"
 #include "vtkOBJWriter.h"
 #include "vtkPLYWriter.h"
 #include "vtkPointData.h"
 #include "vtkPolyData.h"
 #include "vtkSTLWriter.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStructuredPointsReader.h"
 #include "vtkXMLImageDataReader.h"
 #include "vtkXMLPolyDataWriter.h"
@@ -27,8 +33,11 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
+#include <sstream>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace pmcapp
@@ -118,6 +127,146 @@ private:
   int Saved = -1;
 };
 
+// Throws when the volume a reader's header declares (after
+// UpdateInformation) needs more bytes than the machine has memory.
+void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
+{
+  vtkInformation* info = reader->GetOutputInformation(0);
+  if (!info || !info->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    return;
+  }
+  int ext[6];
+  info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
+  double samples = 1.0;
+  std::string dims;
+  for (int a = 0; a < 3; ++a)
+  {
+    double n = static_cast<double>(ext[2 * a + 1]) - ext[2 * a] + 1.0;
+    if (n < 1.0)
+    {
+      return;
+    }
+    samples *= n;
+    dims += (a ? "x" : "") + std::to_string(static_cast<long long>(n));
+  }
+  int type = vtkImageData::GetScalarType(info);
+  int components = std::max(1, vtkImageData::GetNumberOfScalarComponents(info));
+  double bytes = samples * components * std::max(1, vtkDataArray::GetDataTypeSize(type));
+  long pages = sysconf(_SC_PHYS_PAGES);
+  long pageSize = sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || pageSize <= 0)
+  {
+    return;
+  }
+  double memory = static_cast<double>(pages) * static_cast<double>(pageSize);
+  if (bytes > memory)
+  {
+    const double gib = 1024.0 * 1024.0 * 1024.0;
+    char text[160];
+    std::snprintf(text, sizeof(text), "%.1f GiB, more than this machine's memory (%.1f GiB)",
+      bytes / gib, memory / gib);
+    Unreadable(path, "the header declares " + dims + " samples (" + text + ")");
+  }
+}
+
+// NRRD files whose data follow the header in ASCII: VTK 9.1's reader
+// reads them as garbage without an error (a detached header works).
+void RefuseAttachedAsciiNrrd(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  bool ascii = false;
+  bool detached = false;
+  for (int n = 0; n < 4096 && std::getline(in, line); ++n)
+  {
+    if (!line.empty() && line.back() == '\r')
+    {
+      line.pop_back();
+    }
+    if (line.empty())
+    {
+      break; // the end of the header
+    }
+    std::string lower = line;
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+      [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (lower.compare(0, 9, "encoding:") == 0)
+    {
+      std::string value = lower.substr(9);
+      value.erase(0, value.find_first_not_of(" \t"));
+      value.erase(value.find_last_not_of(" \t") + 1);
+      ascii = value == "ascii" || value == "text" || value == "txt";
+    }
+    if (lower.compare(0, 10, "data file:") == 0 || lower.compare(0, 9, "datafile:") == 0)
+    {
+      detached = true;
+    }
+  }
+  if (ascii && !detached)
+  {
+    Unreadable(path, "ASCII-encoded NRRD data in the header's own file, which VTK's reader "
+                     "does not read correctly: use raw or gzip encoding, or a detached header "
+                     "(.nhdr)");
+  }
+}
+
+template <class In, class Out>
+void ScaleValues(const In* in, Out* out, vtkIdType n, double slope, double intercept)
+{
+  for (vtkIdType i = 0; i < n; ++i)
+  {
+    out[i] = static_cast<Out>(static_cast<double>(in[i]) * slope + intercept);
+  }
+}
+
+// The scalars times NIfTI's scl_slope plus scl_inter, as its standard
+// asks (0 or 1 and 0: stored values as they are), in float (double for
+// double and for integers wider than 16 bits, which float would round,
+// and for values beyond float's range).
+void ApplyNiftiScaling(vtkNIFTIImageReader* reader, vtkImageData* volume)
+{
+  double slope = reader->GetRescaleSlope();
+  double intercept = reader->GetRescaleIntercept();
+  if (!std::isfinite(slope) || !std::isfinite(intercept) || slope == 0.0 ||
+    (slope == 1.0 && intercept == 0.0))
+  {
+    return;
+  }
+  vtkDataArray* stored = volume->GetPointData()->GetScalars();
+  int type = stored->GetDataType();
+  double range[2];
+  stored->GetFiniteRange(range, -1);
+  double largest = std::max(std::abs(range[0]), std::abs(range[1])) * std::abs(slope) +
+    std::abs(intercept);
+  bool wide = type == VTK_DOUBLE || vtkDataArray::GetDataTypeSize(type) > 2 || !(largest < 1e37);
+  vtkSmartPointer<vtkDataArray> scaled;
+  if (wide)
+  {
+    scaled = vtkSmartPointer<vtkDoubleArray>::New();
+  }
+  else
+  {
+    scaled = vtkSmartPointer<vtkFloatArray>::New();
+  }
+  scaled->SetName(stored->GetName() ? stored->GetName() : "scalars");
+  scaled->SetNumberOfComponents(stored->GetNumberOfComponents());
+  scaled->SetNumberOfTuples(stored->GetNumberOfTuples());
+  const vtkIdType n = stored->GetNumberOfValues();
+  void* in = stored->GetVoidPointer(0);
+  void* out = scaled->GetVoidPointer(0);
+  switch (type)
+  {
+    vtkTemplateMacro(wide
+        ? ScaleValues(static_cast<const VTK_TT*>(in), static_cast<double*>(out), n, slope, intercept)
+        : ScaleValues(static_cast<const VTK_TT*>(in), static_cast<float*>(out), n, slope, intercept));
+    default:
+      Unreadable(reader->GetFileName() ? reader->GetFileName() : "NIfTI file",
+        "scalars of an unsupported type cannot take the header's scaling");
+  }
+  volume->GetPointData()->SetScalars(scaled);
+}
+
 // Runs the reader and turns captured VTK errors into an Error.
 vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
 {
@@ -126,6 +275,13 @@ vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
   std::string stray;
   {
     StderrCapture capture;
+    // The header first: a size beyond the machine's memory is refused
+    // before any allocation (some readers crash when it fails).
+    reader->UpdateInformation();
+    if (TakeVTKErrors().empty())
+    {
+      CheckDeclaredSize(reader, path);
+    }
     reader->Update();
     stray = capture.Text();
   }
@@ -197,6 +353,7 @@ vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::stri
   }
   else if (ext == ".nrrd" || ext == ".nhdr")
   {
+    RefuseAttachedAsciiNrrd(path);
     reader = vtkSmartPointer<vtkNrrdReader>::New();
     format = "NRRD";
   }
@@ -281,8 +438,10 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
   {
     Unreadable(path, "the volume has no point scalars");
   }
+  // Infinite samples are skipped like NaN ones (the cells touching them
+  // have no surface): only finite values count.
   double range[2];
-  scalars->GetRange(range, 0);
+  scalars->GetFiniteRange(range, 0);
   if (!std::isfinite(range[0]) || !std::isfinite(range[1]) || range[0] > range[1])
   {
     Unreadable(path, "the scalars have no finite values");
@@ -290,6 +449,10 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
 
   auto volume = vtkSmartPointer<vtkImageData>::New();
   volume->ShallowCopy(image);
+  if (auto* nifti = vtkNIFTIImageReader::SafeDownCast(reader))
+  {
+    ApplyNiftiScaling(nifti, volume);
+  }
   return volume;
 }
 
@@ -309,6 +472,158 @@ std::string DescribeVolume(vtkImageData* volume)
     }
   }
   return text;
+}
+
+namespace
+{
+
+// Whether the binary PLY file vtkPLYWriter wrote holds every point and
+// polygon of surface: its size must be what its header declares for them.
+bool CompletePly(const std::string& file, vtkPolyData* surface)
+{
+  std::FILE* f = std::fopen(file.c_str(), "rb");
+  if (!f)
+  {
+    return false;
+  }
+  std::string header;
+  std::string line;
+  int c;
+  while (header.size() < 65536 && (c = std::getc(f)) != EOF)
+  {
+    header += static_cast<char>(c);
+    if (c == '\n')
+    {
+      if (line == "end_header")
+      {
+        break;
+      }
+      line.clear();
+    }
+    else
+    {
+      line += static_cast<char>(c);
+    }
+  }
+  bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  if (failed || line != "end_header")
+  {
+    return false;
+  }
+  auto typeSize = [](const std::string& t) -> long long {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8")
+      return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16")
+      return 2;
+    if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" ||
+      t == "float32")
+      return 4;
+    if (t == "double" || t == "float64")
+      return 8;
+    return -1;
+  };
+  long long expected = static_cast<long long>(header.size());
+  long long vertices = -1;
+  long long faces = -1;
+  std::string element;
+  long long count = 0;
+  std::istringstream lines(header);
+  while (std::getline(lines, line))
+  {
+    std::istringstream words(line);
+    std::string word;
+    words >> word;
+    if (word == "format" && (words >> word, word == "ascii"))
+    {
+      return true; // not what the tool writes; nothing to size
+    }
+    if (word == "element")
+    {
+      words >> element >> count;
+      if (element == "vertex")
+      {
+        vertices = count;
+      }
+      else if (element == "face")
+      {
+        faces = count;
+      }
+    }
+    else if (word == "property")
+    {
+      std::string type;
+      words >> type;
+      if (type == "list")
+      {
+        std::string countType, itemType;
+        words >> countType >> itemType;
+        if (element != "face" || typeSize(countType) < 0 || typeSize(itemType) < 0)
+        {
+          return true; // a layout the tool does not write
+        }
+        expected += count * typeSize(countType) +
+          static_cast<long long>(surface->GetPolys()->GetNumberOfConnectivityIds()) *
+            typeSize(itemType);
+      }
+      else if (typeSize(type) < 0)
+      {
+        return true;
+      }
+      else
+      {
+        expected += count * typeSize(type);
+      }
+    }
+  }
+  struct stat st;
+  return vertices == surface->GetNumberOfPoints() && faces == surface->GetNumberOfPolys() &&
+    stat(file.c_str(), &st) == 0 && static_cast<long long>(st.st_size) == expected;
+}
+
+// Whether the OBJ file vtkOBJWriter wrote holds every point and polygon
+// of surface: the writer does not report a failed write (a full disk left
+// a shorter file), so its lines are counted.
+bool CompleteObj(const std::string& file, vtkPolyData* surface)
+{
+  std::FILE* f = std::fopen(file.c_str(), "rb");
+  if (!f)
+  {
+    return false;
+  }
+  long long points = 0;
+  long long faces = 0;
+  int previous = '\n';
+  int first = 0;
+  int second = 0;
+  int c;
+  // The first two characters of each line tell "v " from "vn" and "f ".
+  int column = 0;
+  while ((c = std::getc(f)) != EOF)
+  {
+    if (previous == '\n')
+    {
+      column = 0;
+    }
+    if (column == 0)
+    {
+      first = c;
+    }
+    else if (column == 1)
+    {
+      second = c;
+      points += first == 'v' && (second == ' ' || second == '\t');
+      faces += first == 'f' && (second == ' ' || second == '\t');
+    }
+    ++column;
+    previous = c;
+  }
+  bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  return !failed && (previous == '\n' || points + faces == 0) &&
+    points == surface->GetNumberOfPoints() && faces == surface->GetNumberOfPolys();
+}
+
 }
 
 void CheckSurfaceFormat(const std::string& path)
@@ -360,11 +675,25 @@ void WriteSurface(vtkPolyData* surface, const std::string& path, const std::stri
   TakeVTKErrors();
   writer->Update();
   std::vector<std::string> errors = TakeVTKErrors();
+  // vtkPLYWriter and vtkOBJWriter do not report a failed write (a full
+  // disk left a shorter file, and a success): what they wrote is checked.
+  if (errors.empty() && writer->GetErrorCode() == 0 &&
+    ((ext == ".ply" && !CompletePly(file, surface)) ||
+      (ext == ".obj" && !CompleteObj(file, surface))))
+  {
+    errors.push_back("the file came out incomplete (is the disk full?)");
+  }
   if (!errors.empty() || writer->GetErrorCode() != 0 || !IsRegularFile(file))
   {
     RemoveFile(file);
-    throw Error("cannot write '" + path + "'" +
-      (errors.empty() ? std::string() : ": " + errors.front()));
+    std::string why = BestError(errors);
+    if (why.empty())
+    {
+      why = writer->GetErrorCode() != 0
+        ? vtkErrorCode::GetStringFromErrorCode(writer->GetErrorCode())
+        : "the writer failed";
+    }
+    throw Error("cannot write '" + path + "': " + why);
   }
 }
 

@@ -243,13 +243,14 @@ Options ParseArguments(int argc, char* argv[])
         Usage(name + ": the file name is empty");
       }
     }
-    else if (name == "--compare")
+    else if (name == "--compare" || name == "--distance")
     {
-      o.Compare = value();
-    }
-    else if (name == "--distance")
-    {
-      o.Distance = value();
+      std::string& picture = name == "--compare" ? o.Compare : o.Distance;
+      picture = value();
+      if (picture.empty())
+      {
+        Usage(name + ": the file name is empty");
+      }
     }
     else if (name == "--write-volume")
     {

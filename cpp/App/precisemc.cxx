@@ -15,6 +15,7 @@
 
 #include "vtkCommand.h"
 #include "vtkDataArray.h"
+#include "vtkErrorCode.h"
 #include "vtkImageData.h"
 #include "vtkNew.h"
 #include "vtkPointData.h"
@@ -159,7 +160,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     d.Name = BaseName(o.Input);
     d.Description = pmcapp::DescribeVolume(d.Volume);
     double range[2];
-    d.Volume->GetPointData()->GetScalars()->GetRange(range, 0);
+    d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
     if (o.Values.empty())
     {
       d.Values.push_back(0.5 * (range[0] + range[1]));
@@ -202,7 +203,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
       d.Values = o.Values;
     }
     double range[2];
-    d.Volume->GetPointData()->GetScalars()->GetRange(range, 0);
+    d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
     for (double v : d.Values)
     {
       if (v < range[0] || v > range[1])
@@ -348,6 +349,46 @@ int main(int argc, char* argv[])
     {
       pmcapp::CheckWritable(o.Distance, "picture");
     }
+    // Two spellings of one file ("a.png", "./a.png", a link to the
+    // directory) would share a temporary, and one output would overwrite
+    // the other.
+    {
+      std::vector<std::pair<std::string, std::string>> written;
+      for (const auto& name : names)
+      {
+        if (!o.Output.empty())
+        {
+          written.emplace_back(pathFor(o.Output, name), "");
+        }
+        if (!o.WriteVolume.empty())
+        {
+          written.emplace_back(pathFor(o.WriteVolume, name), "");
+        }
+      }
+      for (const std::string* png : { &o.Compare, &o.Distance })
+      {
+        if (!png->empty())
+        {
+          written.emplace_back(*png, "");
+        }
+      }
+      for (auto& w : written)
+      {
+        w.second = pmcapp::CanonicalPath(w.first);
+      }
+      for (size_t a = 0; a < written.size(); ++a)
+      {
+        for (size_t b = a + 1; b < written.size(); ++b)
+        {
+          if (written[a].second == written[b].second)
+          {
+            throw Error("'" + written[a].first + "' and '" + written[b].first +
+                "' name the same file",
+              2);
+          }
+        }
+      }
+    }
     const bool pictures = !o.Compare.empty() || !o.Distance.empty();
     if (pictures)
     {
@@ -442,9 +483,21 @@ int main(int argc, char* argv[])
         writer->SetInputData(d.Volume);
         writer->SetDataModeToAppended();
         writer->EncodeAppendedDataOff();
-        if (!writer->Write())
+        // Write() returns 1 even when the disk filled up: the error code
+        // and the captured errors tell.
+        pmcapp::TakeVTKErrors();
+        int ok = writer->Write();
+        std::string why = pmcapp::BestError(pmcapp::TakeVTKErrors());
+        if (!ok || writer->GetErrorCode() != 0 || !why.empty())
         {
-          throw Error("cannot write the volume " + path);
+          pmcapp::RemoveFile(tmp);
+          if (why.empty())
+          {
+            why = writer->GetErrorCode() != 0
+              ? vtkErrorCode::GetStringFromErrorCode(writer->GetErrorCode())
+              : "the writer failed";
+          }
+          throw Error("cannot write the volume '" + path + "': " + why);
         }
       }
       if (!output.empty())

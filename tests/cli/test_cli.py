@@ -14,6 +14,7 @@ import struct
 import subprocess
 import sys
 import tempfile
+import time
 import traceback
 
 import numpy as np
@@ -844,6 +845,170 @@ def measure_several_isovalues_on_integer_data():
     expect(scalars is not None and scalars.GetDataTypeAsString() == "unsigned char",
            "the point scalars are not in the input's type")
     expect(scalars.GetRange() == (50.0, 50.0), f"point scalars {scalars.GetRange()}, expected 50")
+
+
+def limited_run(limit_blocks, *args):
+    """The tool under a file size limit (ulimit -f, SIGXFSZ ignored): a
+    write past it fails with EFBIG, as a write to a full disk fails."""
+    script = f'trap "" XFSZ; ulimit -f {limit_blocks}; exec "$0" "$@"'
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    return subprocess.run(["/bin/sh", "-c", script, TOOL, *map(str, args)], capture_output=True,
+                          text=True, env=environment, timeout=TIMEOUT)
+
+
+@check
+def failed_writes_keep_the_old_files():
+    """A surface or volume that cannot be written whole (the disk full: here
+    a file size limit) fails the run and leaves the file there before
+    untouched, for every format, including those whose VTK writer does not
+    report the failure (PLY, OBJ, VTK XML image data)."""
+    d = fresh_dir("failed-writes")
+    for ext in ("vtp", "ply", "stl", "obj"):
+        out = os.path.join(d, "t." + ext)
+        with open(out, "w") as f:
+            f.write("OLD\n")
+        r = limited_run(8, "--sample", "tube", "--epsilon", "0", "--normals", "none", "-q",
+                        "-o", out)
+        expect(r.returncode == 1, f"{ext}: exit status {r.returncode}, stderr {r.stderr!r}")
+        lines = r.stderr.splitlines()
+        expect(len(lines) == 1 and lines[0].startswith(f"precisemc: error: cannot write '{out}'"),
+               f"{ext}: stderr {r.stderr!r}")
+        expect("request" not in lines[0], f"{ext}: a pipeline dump for a reason: {lines[0]!r}")
+        with open(out) as f:
+            expect(f.read() == "OLD\n", f"{ext}: the old file was changed")
+        # The same run without the limit writes the whole surface.
+        ok("--sample", "tube", "--epsilon", "0", "--normals", "none", "-q", "-o", out)
+        expect(read_surface(out).GetNumberOfPolys() > 1000, f"{ext}: not written whole")
+    vol = os.path.join(d, "v.vti")
+    with open(vol, "w") as f:
+        f.write("OLD\n")
+    r = limited_run(16, "--sample", "ml", "-q", "--write-volume", vol)
+    expect(r.returncode == 1 and "cannot write the volume" in r.stderr,
+           f"volume: exit status {r.returncode}, stderr {r.stderr!r}")
+    with open(vol) as f:
+        expect(f.read() == "OLD\n", "the old volume was changed")
+    leftovers = [f for f in os.listdir(d) if ".tmp" in f]
+    expect(not leftovers, f"temporary files left: {leftovers}")
+
+
+@check
+def two_spellings_of_one_output():
+    """Outputs are compared as files, not as strings: 'a.png' and './a.png'
+    (or a path through a link to the directory) are refused up front."""
+    d = fresh_dir("same-file")
+    a = os.path.join(d, "a.png")
+    with open(a, "w") as f:
+        f.write("OLD\n")
+    expect_error(["--sample", "tube", "--compare", "a.png", "--distance", "./a.png"],
+                 "name the same file", status=2, cwd=d)
+    os.symlink(d, os.path.join(d, "link"))
+    expect_error(["--sample", "tube", "-o", os.path.join(d, "s.vtp"), "--write-volume",
+                  os.path.join(d, "v.vti"), "--compare", a, "--distance",
+                  os.path.join(d, "link", "a.png")], "name the same file", status=2)
+    with open(a) as f:
+        expect(f.read() == "OLD\n", "the picture was overwritten")
+    expect_error(["--sample", "tube", "--compare", ""], "empty", status=2)
+    expect_error(["--sample", "tube", "--distance="], "empty", status=2)
+
+
+@check
+def long_output_names_and_interrupts():
+    """A file name that fits is written even when its temporary name, which
+    adds a prefix and a tag, would not; an interrupted run (SIGTERM) leaves
+    no temporary files behind."""
+    d = fresh_dir("names")
+    long_name = os.path.join(d, "x" * 250 + ".vtp")
+    ok("--sample", "tube", "--epsilon", "0", "-q", "-o", long_name)
+    expect(read_surface(long_name).GetNumberOfPolys() > 1000, "the long name was not written")
+    out = os.path.join(d, "run.vtp")
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    p = subprocess.Popen([TOOL, "--sample", "all", "--measure", "-o", out],
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=environment)
+    seen = []
+    for _ in range(3000):
+        seen = [f for f in os.listdir(d) if ".tmp" in f]
+        if seen or p.poll() is not None:
+            break
+        time.sleep(0.01)
+    expect(seen, "no temporary file seen while the run went on")
+    p.terminate()
+    p.wait(timeout=TIMEOUT)
+    expect(p.returncode == -15, f"exit status {p.returncode} after SIGTERM")
+    leftovers = [f for f in os.listdir(d) if ".tmp" in f or f.startswith("run")]
+    expect(not leftovers, f"left behind after SIGTERM: {leftovers}")
+
+
+@check
+def infinite_samples_are_skipped():
+    """An infinite sample is skipped like a NaN one (the cells touching it
+    get no surface): the volume is read, the range is the finite one."""
+    d = fresh_dir("inf")
+    image = blob_image()
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    v[100] = np.inf
+    v[200] = -np.inf
+    image.GetPointData().GetScalars().Modified()
+    path = write_vti(image, os.path.join(d, "inf.vti"))
+    out = os.path.join(d, "o.vtp")
+    r = ok(path, "-o", out)
+    m = re.search(r"the middle of the scalar range \[([-0-9.e+]+), ([-0-9.e+]+)\]", r.stdout)
+    expect(m and all(math.isfinite(float(x)) for x in m.groups()), f"range: {r.stdout}")
+    expect(read_surface(out).GetNumberOfPolys() > 100, "no surface")
+    expect_error([path, "-v", "1e300"], "outside the scalar range")
+
+
+@check
+def nifti_scaling_is_applied():
+    """NIfTI's scl_slope and scl_inter turn stored values into real ones (as
+    DICOM's rescale does): the range and the isovalues are the real ones,
+    and the surface at a real value is the stored volume's at the matching
+    stored value."""
+    d = fresh_dir("nifti-scaling")
+    image = blob_image()
+    plain = os.path.join(d, "plain.nii")
+    scaled = os.path.join(d, "scaled.nii")
+    for path, slope, intercept in ((plain, 0.0, 0.0), (scaled, 2.0, -100.0)):
+        w = vtkNIFTIImageWriter()
+        w.SetFileName(path)
+        w.SetInputData(image)
+        w.SetRescaleSlope(slope)
+        w.SetRescaleIntercept(intercept)
+        w.Write()
+    r_plain = ok(plain, "-v", "40")
+    r_scaled = ok(scaled, "-v", str(2.0 * 40 - 100.0))
+    expect(table_value(r_plain.stdout, "output triangles") ==
+           table_value(r_scaled.stdout, "output triangles"),
+           f"different surfaces:\n{r_plain.stdout}\n{r_scaled.stdout}")
+    r = ok(scaled)
+    m = re.search(r"the middle of the scalar range \[([-0-9.e+]+), ([-0-9.e+]+)\]", r.stdout)
+    lo, hi = (float(x) for x in m.groups())
+    v = vtk_to_numpy(image.GetPointData().GetScalars())
+    expect(abs(lo - (2 * float(v.min()) - 100)) < 1e-3 and abs(hi - (2 * float(v.max()) - 100)) < 1e-3,
+           f"range [{lo}, {hi}] is not the scaled one")
+
+
+@check
+def nrrd_headers_vtk_misreads_are_refused():
+    """Data VTK's NRRD reader would read as garbage (ASCII after an attached
+    header) or crash on (a detached header declaring more than the machine
+    holds) is refused with a reason."""
+    d = fresh_dir("nrrd-refused")
+    ascii_path = os.path.join(d, "ascii.nrrd")
+    with open(ascii_path, "w") as f:
+        f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: ascii\n\n"
+                "1 2 3 4 5 6 7 8\n")
+    out = os.path.join(d, "o.vtp")
+    expect_error([ascii_path, "-o", out], "ascii", outputs=[out])
+    raw = os.path.join(d, "small.raw")
+    with open(raw, "wb") as f:
+        f.write(bytes(64))
+    huge = os.path.join(d, "huge.nhdr")
+    with open(huge, "w") as f:
+        f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\n"
+                "encoding: raw\nendian: little\ndata file: small.raw\n\n")
+    expect_error([huge, "-o", out], "more than this machine's memory", outputs=[out])
 
 
 @check
