@@ -353,7 +353,9 @@ options:
       --normals N       point normals: none, gradient (of the trilinear
                         interpolant) or central (differences); default
                         gradient
-      --max-triangles N cap on the output triangles of each isovalue;
+      --max-triangles N cap on the output triangles of each isovalue:
+                        refinement stops at the deepest level that fits
+                        (the Marching Cubes triangles are always kept);
                         0 = no cap (default)
       --threads N       worker threads; 0 = all cores (default)
       --smp             run the library's work as vtkSMPTools tasks, on
