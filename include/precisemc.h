@@ -492,7 +492,11 @@ typedef struct pmc_stats {
  * any other value to stop: the callback is not called again, and
  * `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
  * and produces no mesh.
- * The callback must not call `pmc_options_*` on the options being used.
+ * The callback must not call `pmc_options_*` on the options being used,
+ * and must return normally: a C++ exception thrown out of it (or a
+ * `longjmp` across the library) cannot pass through the library's Rust
+ * frames and aborts the process. Catch inside the callback and return
+ * non-zero to stop instead.
  */
 typedef int (*pmc_progress_fn)(void *user_data, double fraction);
 
@@ -514,7 +518,9 @@ typedef void (*pmc_task_fn)(void *task_data, uint64_t index);
  * after it has returned. `executor_data` is the pointer given to
  * `pmc_options_set_executor`. It is called only on the thread that called
  * `pmc_extract`, a few times per extraction (one batch per parallel
- * step).
+ * step). Like the progress callback, it must return normally: a C++
+ * exception thrown out of it aborts the process (catch it inside; a
+ * batch it did not finish is reported by `pmc_extract`).
  *
  * With VTK, for instance:
  * `vtkSMPTools::For(0, count, [&](vtkIdType b, vtkIdType e) { for (vtkIdType i = b; i < e; ++i) task(task_data, i); });`
@@ -577,7 +583,9 @@ size_t pmc_last_error_message(char *buf, size_t len);
  *   `pmc_volume`), an isovalue that is NaN or infinite, or an index
  *   offset out of range;
  * - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
- * - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed.
+ * - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed, or the
+ *   worker threads could not be started (their stacks, or the process's
+ *   limit on threads).
  *
  * The samples are read only during the call. The output does not depend
  * on the thread count, and pieces of a volume that share a layer of
@@ -625,7 +633,8 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * range (`(p - origin) / spacing` overflows), a point id out of range,
  * or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
- * made. Uses all cores; the result does not depend on their number.
+ * made or the worker threads cannot be started. Uses all cores; the
+ * result does not depend on their number.
  *
  * # Safety
  *

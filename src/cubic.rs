@@ -184,7 +184,13 @@ impl<T: Scalar, K: Kernel> ReconstructionFilter for Tricubic<'_, T, K> {
 /// s[k]`, with `c[-1] = c[0]` and `c[n] = c[n-1]` (the clamped border of
 /// [`Tricubic`]), by the Thomas algorithm (the system is diagonally
 /// dominant). One `f64` per sample: the only copy of the volume the
-/// project makes, and only for this filter.
+/// project makes, and only for this filter. A non-finite sample (NaN or
+/// infinite) splits its lines: each run of finite samples is solved on its
+/// own, with the clamped border at the run's ends, and the non-finite
+/// sample stays as it is. Solved whole, one such sample would make every
+/// coefficient of its lines non-finite, then, axis after axis, of the
+/// whole volume, and every cell would be skipped; this way only the cells
+/// whose 4x4x4 neighbourhood reaches it are.
 pub(crate) fn prefilter<T: Scalar>(grid: &Grid<'_, T>) -> Result<Vec<f64>, crate::Error> {
     let [nx, ny, nz] = grid.dims;
     let n = nx * ny * nz;
@@ -209,7 +215,19 @@ pub(crate) fn prefilter<T: Scalar>(grid: &Grid<'_, T>) -> Result<Vec<f64>, crate
                 for t in 0..len {
                     line[t] = c[base + t * strides[axis]];
                 }
-                solve_line(&mut line[..len], &mut scratch[..len]);
+                let mut start = 0;
+                while start < len {
+                    if !line[start].is_finite() {
+                        start += 1;
+                        continue;
+                    }
+                    let end = line[start..len]
+                        .iter()
+                        .position(|v| !v.is_finite())
+                        .map_or(len, |r| start + r);
+                    solve_line(&mut line[start..end], &mut scratch[start..end]);
+                    start = end;
+                }
                 for t in 0..len {
                     c[base + t * strides[axis]] = line[t];
                 }

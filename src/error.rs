@@ -45,8 +45,10 @@ pub enum Error {
     /// The world coordinate of the volume's first or last sample along an
     /// axis, `origin + spacing * index`, is not finite (it overflows).
     #[error(
-        "the world coordinate {axis} of global index {index}, origin {origin} + \
-         spacing {spacing} * {index}, is not finite"
+        "the world coordinate {axis} of global index {index}, origin {} + \
+         spacing {} * {index}, is not finite",
+        Number(*.origin),
+        Number(*.spacing)
     )]
     WorldOverflow {
         /// Axis index (0 = x, 1 = y, 2 = z).
@@ -60,7 +62,7 @@ pub enum Error {
         spacing: f64,
     },
     /// A spacing is zero, negative or not finite.
-    #[error("spacing {axis} is {value}; spacings must be finite and > 0")]
+    #[error("spacing {axis} is {}; spacings must be finite and > 0", Number(*.value))]
     InvalidSpacing {
         /// Axis index.
         axis: usize,
@@ -68,7 +70,7 @@ pub enum Error {
         value: f64,
     },
     /// An origin coordinate is not finite.
-    #[error("origin {axis} is {value}; the origin must be finite")]
+    #[error("origin {axis} is {}; the origin must be finite", Number(*.value))]
     InvalidOrigin {
         /// Axis index.
         axis: usize,
@@ -90,10 +92,10 @@ pub enum Error {
     #[error("invalid strides {0:?}: a stride of 0 aliases samples")]
     InvalidStrides([i64; 3]),
     /// The isovalue is NaN or infinite.
-    #[error("isovalue {0} is not finite")]
+    #[error("isovalue {} is not finite", Number(*.0))]
     InvalidIsovalue(f64),
     /// Epsilon is negative or not finite.
-    #[error("epsilon {0} must be finite and >= 0 (cell units)")]
+    #[error("epsilon {} must be finite and >= 0 (cell units)", Number(*.0))]
     InvalidEpsilon(f64),
     /// The maximum refinement level is above [`crate::MAX_LEVEL_LIMIT`].
     #[error("max level {0} is above the limit of {limit}", limit = crate::MAX_LEVEL_LIMIT)]
@@ -131,6 +133,23 @@ pub enum Error {
     InvalidMeasure(&'static str),
 }
 
+/// A number in a message: as Rust prints it, but in scientific notation
+/// when that would run to many digits (`1e308`, not 309 of them; `1e-300`,
+/// not 300 zeros), so the message stays short enough for a C caller's
+/// buffer.
+pub(crate) struct Number(pub f64);
+
+impl std::fmt::Display for Number {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v = self.0;
+        if v.is_finite() && v != 0.0 && !(1e-6..1e16).contains(&v.abs()) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
+        }
+    }
+}
+
 /// The size in an out-of-memory message: sizes are saturated, so
 /// `usize::MAX` stands for one beyond the address space.
 fn reserved_bytes(n: usize) -> String {
@@ -138,5 +157,28 @@ fn reserved_bytes(n: usize) -> String {
         "more bytes than the address space holds".to_string()
     } else {
         format!("{n} bytes")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_messages_stay_short() {
+        let shown = |v: f64| Number(v).to_string();
+        assert_eq!(shown(-3.0), "-3");
+        assert_eq!(shown(0.5), "0.5");
+        assert_eq!(shown(0.0), "0");
+        assert_eq!(shown(f64::NAN), "NaN");
+        assert_eq!(shown(f64::NEG_INFINITY), "-inf");
+        assert_eq!(shown(1.7e308), "1.7e308");
+        assert_eq!(shown(-1e-300), "-1e-300");
+        assert_eq!(shown(123456.25), "123456.25");
+        let e = Error::InvalidOrigin {
+            axis: 1,
+            value: f64::MAX,
+        };
+        assert!(e.to_string().len() < 80, "{e}");
     }
 }

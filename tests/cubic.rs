@@ -221,6 +221,59 @@ fn refined_surfaces_are_closed_and_on_the_filter_isosurface() {
     }
 }
 
+/// A NaN and an infinite sample far from the surface cost only the cells
+/// near them, with every filter: the surface stays whole and closed. (The
+/// interpolating B-spline's prefilter once spread one NaN over the whole
+/// volume: every cell was skipped and the mesh came out empty.) Where a
+/// filter's cells do not reach the samples the output is unchanged bit
+/// for bit; the interpolating B-spline's coefficients near them move a
+/// little (its lines are solved in runs between them), so its surface is
+/// only checked to be the same size.
+#[test]
+fn non_finite_samples_cost_only_the_cells_near_them() {
+    let dims = [24, 24, 24];
+    let clean = grid_fn(dims, |x, y, z| {
+        8.0 - ((x - 12.0).powi(2) + (y - 11.5).powi(2) + (z - 12.5).powi(2)).sqrt()
+    });
+    let mut dirty = clean.clone();
+    let at = |x: usize, y: usize, z: usize| x + dims[0] * (y + dims[1] * z);
+    dirty[at(2, 2, 2)] = f64::NAN;
+    dirty[at(21, 3, 20)] = f64::INFINITY;
+    let (vc, vd) = (
+        Volume::new(&clean, dims_u64(dims)),
+        Volume::new(&dirty, dims_u64(dims)),
+    );
+    for r in [Reconstruction::Trilinear].into_iter().chain(CUBIC) {
+        let opts = Options {
+            reconstruction: r,
+            ..refine_opts(Topology::Trilinear, Rule::A1, 0.01, 3)
+        };
+        let a = extract(&vc, 0.0, &opts).unwrap();
+        let b = extract(&vd, 0.0, &opts).unwrap();
+        assert_eq!(a.stats.skipped_nonfinite_cells, 0, "{r:?}");
+        // A sample touches 8 cells, and a cubic filter's 4x4x4 neighbourhood
+        // reaches it from 64.
+        let skipped = b.stats.skipped_nonfinite_cells;
+        assert!(
+            (8..=2 * 64).contains(&skipped),
+            "{r:?}: {skipped} cells skipped"
+        );
+        assert!(
+            check_mesh(&b).is_closed_oriented_manifold(),
+            "{r:?}: not closed"
+        );
+        if r == Reconstruction::BSplineInterpolating {
+            let (na, nb) = (a.triangles.len() as f64, b.triangles.len() as f64);
+            assert!(
+                (na - nb).abs() <= 0.02 * na,
+                "{r:?}: {na} and {nb} triangles"
+            );
+        } else {
+            assert!(same_mesh(&a, &b), "{r:?}: the surface changed");
+        }
+    }
+}
+
 /// Pieces of one volume sharing a layer of samples, each with one extra
 /// ghost layer, give identical points on the shared layer.
 #[test]

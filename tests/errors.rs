@@ -278,11 +278,10 @@ fn world_box_must_be_finite() {
     assert_eq!(r, Err(e.clone()));
     assert_eq!(
         e.to_string(),
-        format!(
-            "the world coordinate 0 of global index 4, origin {} + spacing {} * 4, \
-             is not finite",
-            1e308, 1e308
-        )
+        // Numbers of many digits in scientific notation: the message fits
+        // a C caller's buffer.
+        "the world coordinate 0 of global index 4, origin 1e308 + spacing 1e308 * 4, \
+         is not finite"
     );
     // The first index overflows too, with an index offset (negative here).
     let r = extract(

@@ -20,7 +20,9 @@ pub type pmc_task_fn = unsafe extern "C" fn(task_data: *mut c_void, index: u64);
 /// after it has returned. `executor_data` is the pointer given to
 /// `pmc_options_set_executor`. It is called only on the thread that called
 /// `pmc_extract`, a few times per extraction (one batch per parallel
-/// step).
+/// step). Like the progress callback, it must return normally: a C++
+/// exception thrown out of it aborts the process (catch it inside; a
+/// batch it did not finish is reported by `pmc_extract`).
 ///
 /// With VTK, for instance:
 /// `vtkSMPTools::For(0, count, [&](vtkIdType b, vtkIdType e) { for (vtkIdType i = b; i < e; ++i) task(task_data, i); });`

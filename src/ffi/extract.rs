@@ -13,7 +13,10 @@ use crate::Error;
 pub(super) fn failure(e: Error) -> Failure {
     let status = match e {
         Error::Aborted => PmcStatus::Aborted,
-        Error::OutOfMemory(_) => PmcStatus::OutOfMemory,
+        // Worker threads fail to start for want of memory for their stacks
+        // or of the process's thread allowance: a resource, not an
+        // argument, is short.
+        Error::OutOfMemory(_) | Error::ThreadPool(_) => PmcStatus::OutOfMemory,
         _ => PmcStatus::InvalidArgument,
     };
     Failure {
@@ -38,7 +41,9 @@ pub(super) fn failure(e: Error) -> Failure {
 ///   `pmc_volume`), an isovalue that is NaN or infinite, or an index
 ///   offset out of range;
 /// - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
-/// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed.
+/// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed, or the
+///   worker threads could not be started (their stacks, or the process's
+///   limit on threads).
 ///
 /// The samples are read only during the call. The output does not depend
 /// on the thread count, and pieces of a volume that share a layer of
@@ -114,4 +119,22 @@ pub unsafe extern "C" fn pmc_extract(
         unsafe { out_mesh.write(handle) };
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Worker threads that cannot start are a resource shortage, like
+    /// memory, not a caller's mistake.
+    #[test]
+    fn thread_failures_are_out_of_memory() {
+        let f = failure(Error::ThreadPool("Resource temporarily unavailable".into()));
+        assert_eq!(f.status, PmcStatus::OutOfMemory);
+        assert!(f.message.contains("cannot start worker threads"));
+        assert_eq!(
+            failure(Error::InvalidIsovalue(f64::NAN)).status,
+            PmcStatus::InvalidArgument
+        );
+    }
 }

@@ -52,7 +52,8 @@ pub struct pmc_distance {
 /// range (`(p - origin) / spacing` overflows), a point id out of range,
 /// or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
-/// made. Uses all cores; the result does not depend on their number.
+/// made or the worker threads cannot be started. Uses all cores; the
+/// result does not depend on their number.
 ///
 /// # Safety
 ///

@@ -32,7 +32,11 @@ const _: () = assert!(PMC_MAX_INDEX_OFFSET == crate::MAX_INDEX_OFFSET);
 /// any other value to stop: the callback is not called again, and
 /// `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
 /// and produces no mesh.
-/// The callback must not call `pmc_options_*` on the options being used.
+/// The callback must not call `pmc_options_*` on the options being used,
+/// and must return normally: a C++ exception thrown out of it (or a
+/// `longjmp` across the library) cannot pass through the library's Rust
+/// frames and aborts the process. Catch inside the callback and return
+/// non-zero to stop instead.
 pub type pmc_progress_fn =
     Option<unsafe extern "C" fn(user_data: *mut c_void, fraction: f64) -> c_int>;
 
@@ -151,7 +155,8 @@ pub unsafe extern "C" fn pmc_options_set_epsilon(
     let set = |o: &mut OptionsData| {
         if !(epsilon.is_finite() && epsilon >= 0.0) {
             return Err(Failure::invalid(format!(
-                "epsilon {epsilon} must be finite and >= 0 (cell units)"
+                "epsilon {} must be finite and >= 0 (cell units)",
+                crate::error::Number(epsilon)
             )));
         }
         o.core.epsilon = epsilon;
