@@ -40,6 +40,7 @@
 #include "vtkUnsignedCharArray.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -48,6 +49,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 extern "C"
@@ -120,14 +122,44 @@ void AdviseHugePages(void* data, size_t bytes)
 // The library's executor on vtkSMPTools: every task a separate index, so
 // that the backend balances the tasks (slabs of cell layers, chunks of
 // points) one by one. The tasks never throw.
+//
+// The library reports progress, and learns of AbortExecute, after the
+// tasks it runs on the calling thread. TBB runs some of a For's range on
+// the calling thread; the STDThread backend runs none there (the caller
+// only waits, and a long refinement went without progress events, deaf
+// to AbortExecute, to its end). On that backend the calling thread takes
+// tasks too: it runs the first one and then, next to a For over the other
+// workers started from a helper thread, takes the others from a shared
+// counter with them.
 void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
 {
-  vtkSMPTools::For(0, static_cast<vtkIdType>(count), 1, [task, taskData](vtkIdType b, vtkIdType e) {
-    for (vtkIdType i = b; i < e; ++i)
+  const int workers = vtkSMPTools::GetEstimatedNumberOfThreads();
+  if (count < 2 || workers < 2 || std::string(vtkSMPTools::GetBackend()) != "STDThread")
+  {
+    vtkSMPTools::For(0, static_cast<vtkIdType>(count), 1,
+      [task, taskData](vtkIdType b, vtkIdType e) {
+        for (vtkIdType i = b; i < e; ++i)
+        {
+          task(taskData, static_cast<uint64_t>(i));
+        }
+      });
+    return;
+  }
+  std::atomic<uint64_t> next(1);
+  auto drain = [&next, count, task, taskData]() {
+    for (uint64_t i = next.fetch_add(1); i < count; i = next.fetch_add(1))
     {
-      task(taskData, static_cast<uint64_t>(i));
+      task(taskData, i);
     }
+  };
+  const vtkIdType others = static_cast<vtkIdType>(
+    std::min<uint64_t>(static_cast<uint64_t>(workers - 1), count - 1));
+  std::thread helper([&drain, others]() {
+    vtkSMPTools::For(0, others, 1, [&drain](vtkIdType, vtkIdType) { drain(); });
   });
+  task(taskData, 0);
+  drain();
+  helper.join();
 }
 
 struct OptionsDeleter
@@ -615,6 +647,36 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     }
   }
 
+  // Index space -> world for the general case: x = origin + D * S * ijk
+  // (checked before any work: a singular matrix is an error).
+  double indexToWorld[3][3];
+  double normalMatrix[3][3];
+  bool flipWinding = false;
+  if (!axisAligned)
+  {
+    double scaled[3][3];
+    for (int r = 0; r < 3; ++r)
+    {
+      for (int c = 0; c < 3; ++c)
+      {
+        indexToWorld[r][c] = direction->GetElement(r, c) * spacing[c];
+        // The library's normals are in the axis-aligned frame with |spacing|:
+        // map them with the inverse transpose of D * sign(S).
+        scaled[r][c] = direction->GetElement(r, c) * (spacing[c] < 0.0 ? -1.0 : 1.0);
+      }
+    }
+    if (!InverseTranspose(scaled, normalMatrix))
+    {
+      vtkErrorMacro(<< "The direction matrix of the input is singular");
+      output->Initialize();
+      return 1;
+    }
+    // A mirroring transform would turn the triangles inside out: keep the
+    // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
+    flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
+  }
+
+
   // The first sample read (of the contoured extent, or of its ghost layer),
   // as a value index.
   const uint64_t first = static_cast<uint64_t>(numComps) *
@@ -731,7 +793,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     pmc_mesh* raw = nullptr;
     status = pmc_extract(&volume, values[c], options.get(), &raw);
     MeshPtr mesh(raw);
-    if (status == PMC_STATUS_ABORTED)
+    if (status == PMC_STATUS_ABORTED || (status != PMC_STATUS_OK && this->GetAbortExecute()))
     {
       vtkDebugMacro(<< "Aborted");
       this->ResetStatistics();
@@ -800,6 +862,20 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     meshes.push_back(std::move(mesh));
   }
   this->MeanLevel = totalTriangles > 0 ? levelSum / static_cast<double>(totalTriangles) : 0.0;
+  if (this->BudgetReached && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    // Each piece meets the cap on its own, at the level that fits it: two
+    // pieces at different levels do not meet along their cut.
+    int whole[6];
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    if (!std::equal(extent, extent + 6, whole))
+    {
+      vtkWarningMacro(<< "MaxTriangles (" << this->MaxTriangles
+                      << ") lowered the refinement level of this piece of the volume: the "
+                         "pieces' surfaces may not meet along their cuts (raise MaxTriangles, "
+                         "or contour the volume in one piece)");
+    }
+  }
   this->ExecutionTime =
     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (totalPoints > static_cast<vtkTypeUInt64>(VTK_ID_MAX / 4) ||
@@ -807,39 +883,12 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   {
     vtkErrorMacro(<< "Output too large for vtkIdType: " << totalPoints << " points, "
                   << totalTriangles << " triangles");
+    this->ResetStatistics();
     output->Initialize();
     return 1;
   }
   const vtkIdType numPts = static_cast<vtkIdType>(totalPoints);
   const vtkIdType numTris = static_cast<vtkIdType>(totalTriangles);
-
-  // Index space -> world for the general case: x = origin + D * S * ijk.
-  double indexToWorld[3][3];
-  double normalMatrix[3][3];
-  bool flipWinding = false;
-  if (!axisAligned)
-  {
-    double scaled[3][3];
-    for (int r = 0; r < 3; ++r)
-    {
-      for (int c = 0; c < 3; ++c)
-      {
-        indexToWorld[r][c] = direction->GetElement(r, c) * spacing[c];
-        // The library's normals are in the axis-aligned frame with |spacing|:
-        // map them with the inverse transpose of D * sign(S).
-        scaled[r][c] = direction->GetElement(r, c) * (spacing[c] < 0.0 ? -1.0 : 1.0);
-      }
-    }
-    if (!InverseTranspose(scaled, normalMatrix))
-    {
-      vtkErrorMacro(<< "The direction matrix of the input is singular");
-      output->Initialize();
-      return 1;
-    }
-    // A mirroring transform would turn the triangles inside out: keep the
-    // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
-    flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
-  }
 
   // Points.
   vtkNew<vtkPoints> newPts;

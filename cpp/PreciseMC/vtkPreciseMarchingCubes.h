@@ -66,7 +66,8 @@
  * the piece their whole neighbourhood; BSplineInterpolating, whose
  * prefilter is global, asks for the whole volume), likewise. The union is
  * in every case exactly the serial surface (see
- * SetReconstructionFilter()).
+ * SetReconstructionFilter()), unless MaxTriangles lowers a piece's level:
+ * each piece meets the cap on its own (see SetMaxTriangles()).
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
  * parallel over all cores unless NumberOfThreads is set, or on
@@ -404,8 +405,12 @@ public:
   ///@{
   /**
    * Set/Get a cap on the number of output triangles of each contour value;
-   * refinement stops at the highest level that fits. 0 (the default) means
-   * no cap.
+   * refinement stops at the highest level that fits (the Marching Cubes
+   * triangles are always kept, whatever the cap). 0 (the default) means
+   * no cap. A piece of a distributed run meets the cap on its own, with
+   * its own triangles: two pieces stopping at different levels do not
+   * meet along their cut, and the filter warns when the cap lowered the
+   * level of a piece (raise the cap, or contour the volume in one piece).
    */
   vtkSetMacro(MaxTriangles, vtkTypeUInt64);
   vtkGetMacro(MaxTriangles, vtkTypeUInt64);
@@ -432,7 +437,11 @@ public:
    * every execution. When on, NumberOfThreads is not used: the volume is
    * cut for vtkSMPTools::GetEstimatedNumberOfThreads() workers (on the
    * Sequential backend everything runs on the calling thread). Progress
-   * is reported after the tasks vtkSMPTools runs on the calling thread.
+   * is reported, and AbortExecute honoured, after the tasks run on the
+   * calling thread: TBB runs some there; on the STDThread backend, which
+   * runs none of a For there, the calling thread takes tasks beside the
+   * vtkSMPTools workers (one fewer of them, from a helper thread) so that
+   * a long refinement still reports progress and stops when aborted.
    * Default off. The output does not depend on it.
    */
   vtkSetMacro(UseSMPTools, vtkTypeBool);
@@ -449,6 +458,9 @@ public:
    * - NumberOfRefinedTriangles: triangles in the output.
    * - NumberOfAmbiguousCells: cells whose topology was decided by the
    *   trilinear test (0 with Topology Classic).
+   * - NumberOfSkippedCells: cells with a NaN or infinite sample (with the
+   *   cubic filters, in their 4x4x4 neighbourhood), which produce no
+   *   triangles.
    * - MaxLevelReached / MeanLevel: refinement level of output triangles.
    * - NumberOfSamplesEvaluated / NumberOfSplitPoints: sample points tested
    *   and inserted.

@@ -318,6 +318,96 @@ def test_abort_from_progress_observer():
     assert f.GetOutput().GetNumberOfPolys() > 0
 
 
+def test_abort_with_smp_tools_on_the_stdthread_backend():
+    # STDThread runs none of a For's range on the calling thread, where
+    # the library reports progress: the filter's executor makes the caller
+    # take tasks too, so progress events come during the run and an abort
+    # at the first one (not at 1.0, the end) leaves the output empty.
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+    previous = vtkSMPTools.GetBackend()
+    vtkSMPTools.SetBackend("STDThread")
+    vtkSMPTools.Initialize(2)
+    try:
+        image = wavelet(24)
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image)
+        f.SetValue(0, 150.0)
+        f.SetEpsilon(0.0005)
+        f.SetUseSMPTools(True)
+        errors = ErrorObserver(f)
+        seen = []
+
+        def on_progress(obj, event):
+            seen.append(obj.GetProgress())
+            if 0.0 < obj.GetProgress() < 1.0:
+                obj.SetAbortExecute(1)
+
+        tag = f.AddObserver(vtkCommand.ProgressEvent, on_progress)
+        f.Update()
+        # The slabs' step ends at 0.9 of the progress (then the assembly):
+        # the first event comes before, from a task of the calling thread.
+        first = [p for p in seen if 0.0 < p < 1.0]
+        assert first and first[0] < 0.9, seen
+        assert f.GetOutput().GetNumberOfPolys() == 0
+        assert not errors.errors
+        assert f.GetNumberOfRefinedTriangles() == 0
+        # Without the abort, the same run on the same backend is whole and
+        # equal to the library's own threads'.
+        f.RemoveObserver(tag)
+        f.SetAbortExecute(0)
+        f.Modified()
+        f.Update()
+        own = precise(image, [150.0], Epsilon=0.0005)
+        f.SetOutputPointsPrecision(1)
+        f.Update()
+        assert f.GetOutput().GetNumberOfPolys() > 1000
+        assert np.array_equal(points(f.GetOutput()), points(own.GetOutput()))
+        assert np.array_equal(triangles(f.GetOutput()), triangles(own.GetOutput()))
+    finally:
+        vtkSMPTools.SetBackend(previous)
+
+
+def test_singular_direction_is_refused_before_any_work():
+    image = wavelet(8)
+    image.SetDirectionMatrix(1, 0, 0, 1, 0, 0, 0, 0, 1)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 150.0)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert errors.errors and "singular" in errors.errors[-1]
+    assert f.GetOutput().GetNumberOfPolys() == 0
+    assert f.GetNumberOfExecutions() == 0
+    assert f.GetNumberOfMCTriangles() == 0 and f.GetNumberOfRefinedTriangles() == 0
+
+
+def test_max_triangles_on_a_piece_warns_of_cracks():
+    # Each piece meets the cap on its own: one stopping at a lower level
+    # than its neighbour does not meet it along the cut, which the filter
+    # says. The whole volume in one piece under the same cap does not warn.
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-8, 8, -8, 8, -8, 16)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(source.GetOutputPort())
+    f.SetValue(0, 130.0)
+    f.SetEpsilon(0.001)
+    f.SetMaxTriangles(8000)
+    errors = ErrorObserver(f)
+    f.UpdatePiece(0, 1, 0)
+    assert f.GetBudgetReached() and not errors.warnings
+    warned = []
+    for piece in range(2):
+        f.UpdatePiece(piece, 2, 0)
+        if f.GetBudgetReached():
+            warned.append(piece)
+    assert warned, "no piece reached the cap"
+    assert len(errors.warnings) == len(warned)
+    assert "may not meet along their cuts" in errors.warnings[-1]
+    assert not errors.errors
+
+
 def test_error_no_scalars():
     from vtkmodules.vtkCommonDataModel import vtkImageData
 
