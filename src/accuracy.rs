@@ -44,7 +44,9 @@ pub struct MeasureOptions {
     /// Subdivisions of each triangle edge for the barycentric sample grid:
     /// `(n + 1)(n + 2) / 2` samples per triangle. Default 4, at least 1.
     pub density: u32,
-    /// Absolute tolerance of each distance, in cell units. Default 1e-5.
+    /// Absolute tolerance of each distance, in cell units. Default 1e-5;
+    /// at least [`MIN_TOLERANCE`] (the search's cost grows several times
+    /// with every decade below the default).
     pub tolerance: f64,
     /// Relative tolerance of each distance (a fraction of the distance).
     /// Default 0.02: distances are certified to within
@@ -65,6 +67,12 @@ impl Default for MeasureOptions {
         }
     }
 }
+
+/// The smallest [`MeasureOptions::tolerance`] accepted, in cell units:
+/// near a place where `S_K` runs nearly parallel to the search's boxes, a
+/// tighter one made a single triangle's samples take seconds (1e-9) to
+/// minutes (1e-10), and a whole mesh hours.
+pub const MIN_TOLERANCE: f64 = 1e-8;
 
 /// Distance statistics of a mesh to `S_K`, in cell units.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -94,7 +102,8 @@ pub struct Distance {
 /// move the volume's origin by `spacing * offset` instead.) Triangles
 /// index `points`. Errors: invalid volume, non-finite isovalue or points,
 /// triangle indices out of range, `density` outside `1..=1024`, tolerance
-/// not positive. Runs on `options.threads` threads that are all joined
+/// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
+/// `[0, 1)`. Runs on `options.threads` threads that are all joined
 /// before it returns.
 pub fn measure(
     volume: &Volume<'_>,
@@ -110,8 +119,10 @@ pub fn measure(
     if options.density == 0 || options.density > 1024 {
         return Err(Error::InvalidMeasure("density must be in 1..=1024"));
     }
-    if !(options.tolerance.is_finite() && options.tolerance > 0.0) {
-        return Err(Error::InvalidMeasure("tolerance must be positive"));
+    if !(options.tolerance.is_finite() && options.tolerance >= MIN_TOLERANCE) {
+        return Err(Error::InvalidMeasure(
+            "tolerance must be finite and at least 1e-8 cells (MIN_TOLERANCE)",
+        ));
     }
     if !(options.relative_tolerance.is_finite() && (0.0..1.0).contains(&options.relative_tolerance))
     {

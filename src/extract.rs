@@ -101,8 +101,10 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// milliseconds of work, runs on the calling thread with no call in
 /// between; on several threads, progress is reported after each slab of
 /// cell layers the calling thread contours itself.)
-/// Returning `ControlFlow::Break(())` stops the extraction within a few
-/// milliseconds; it then returns [`Error::Aborted`].
+/// Returning `ControlFlow::Break(())` stops the extraction once each
+/// worker finishes the cell layer it is on (within a few milliseconds for
+/// layers of up to about a million cells; a layer of very many cells
+/// takes longer); it then returns [`Error::Aborted`].
 pub fn extract_with_progress(
     volume: &Volume<'_>,
     isovalue: f64,

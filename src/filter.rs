@@ -216,9 +216,11 @@ pub fn trilinear_line_cubic(c: &[f64; 8], p: DVec3, d: DVec3) -> (f64, f64) {
 /// Value and gradient (index space) of the reconstruction `filter` of
 /// `volume`, evaluated in cell `cell` (local cell indices) at local
 /// coordinates `local` in `[0, 1]^3`: the function refinement follows.
-/// `Ok(None)` when a sample the cell needs is not finite. Meant for checks
-/// and small queries: the interpolating B-spline prefilters the whole
-/// volume on every call.
+/// `Ok(None)` when a sample the cell needs is not finite;
+/// `Err(Error::OutOfVolume)` for a cell not in the volume (each index
+/// below its dimension less one) or a local coordinate outside `[0, 1]`.
+/// Meant for checks and small queries: the interpolating B-spline
+/// prefilters the whole volume on every call.
 ///
 /// ```
 /// use precisemc::{filter::evaluate, Reconstruction, Volume};
@@ -239,12 +241,11 @@ pub fn evaluate(
     use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
     use crate::Reconstruction as R;
     volume.validate()?;
-    if (0..3).any(|a| cell[a] + 1 >= volume.dims[a])
+    // (`cell[a] + 1` would wrap for u64::MAX; dims are at least 2.)
+    if (0..3).any(|a| cell[a] >= volume.dims[a] - 1)
         || local.iter().any(|c| !(0.0..=1.0).contains(c))
     {
-        return Err(crate::Error::InvalidMeasure(
-            "cell or local point out of range",
-        ));
+        return Err(crate::Error::OutOfVolume { cell, local });
     }
     fn at<F: ReconstructionFilter>(f: &F, cell: [u64; 3], p: DVec3) -> Option<(f64, [f64; 3])> {
         let c = f.load(cell.map(|c| c as usize))?;

@@ -85,8 +85,11 @@ pub use volume::{Samples, Scalar, ScalarType, Volume, MAX_DIMENSION, MAX_INDEX_O
 /// and levels beyond 10 only add triangles far below any useful epsilon.
 pub const MAX_LEVEL_LIMIT: u32 = 10;
 
-/// Output triangles never exceed this many, whatever the options, so that a
-/// tiny epsilon with a high max level cannot exhaust memory (about 64 bytes
-/// per triangle with its share of points: 16 GiB at most). Refinement stops
-/// at the highest level that fits, like a caller's cap.
+/// Refinement never takes the output past this many triangles, whatever
+/// the options, so that a tiny epsilon with a high max level cannot
+/// exhaust memory (about 64 bytes per triangle with its share of points:
+/// 16 GiB at most). Refinement stops at the highest level that fits, like
+/// a caller's cap; the Marching Cubes triangles are always kept, so a
+/// volume whose plain Marching Cubes surface is larger still gets it
+/// whole.
 pub const HARD_TRIANGLE_CAP: u64 = 250_000_000;

@@ -25,11 +25,25 @@ fn locate(p: DVec3, dims: [usize; 3], off: [i64; 3]) -> ([usize; 3], DVec3) {
 
 fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
     // Index-space gradient to world space, negated: towards lower values.
-    let w = DVec3::new(-g.x / spacing[0], -g.y / spacing[1], -g.z / spacing[2]);
+    let mut w = DVec3::new(-g.x / spacing[0], -g.y / spacing[1], -g.z / spacing[2]);
     // Scale first so huge gradients do not overflow the length.
-    let m = w.abs().max_element();
+    let mut m = w.abs().max_element();
     if !(m > 0.0 && m.is_finite()) {
-        return [0.0, 0.0, 0.0];
+        // The division overflowed (a subnormal spacing) or underflowed:
+        // the same direction from factors of at most 1 each.
+        let gm = g.abs().max_element();
+        let sm = spacing[0].min(spacing[1]).min(spacing[2]);
+        if gm > 0.0 && gm.is_finite() {
+            w = DVec3::new(
+                -(g.x / gm) * (sm / spacing[0]),
+                -(g.y / gm) * (sm / spacing[1]),
+                -(g.z / gm) * (sm / spacing[2]),
+            );
+            m = w.abs().max_element();
+        }
+        if !(m > 0.0 && m.is_finite()) {
+            return [0.0, 0.0, 0.0];
+        }
     }
     let w = w / m;
     let len = w.length();

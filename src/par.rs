@@ -111,7 +111,10 @@ impl Exec<'_> {
 /// Items a task of an external executor gets in [`Exec::extend`] and
 /// [`Exec::fill_default`]: a few chunks a worker, none tiny.
 fn chunk_len(n: usize, ex: &dyn Executor) -> usize {
-    n.div_ceil(4 * ex.concurrency().max(1)).max(1 << 12)
+    // The executor's figure is the host's: clamped as the slabs' is (a
+    // huge one overflowed the product).
+    let workers = ex.concurrency().clamp(1, crate::extract::MAX_THREADS);
+    n.div_ceil(4 * workers).max(1 << 12)
 }
 
 /// Appends `n` values to `dst`, written by tasks of `ex` in chunks of

@@ -409,15 +409,18 @@ pub fn seems_far<F: ReconstructionFilter>(
 
 /// Where the filter crosses `iso` on the grid edge of `cell` from the
 /// local corner `corner` along `axis`, as a parameter in `[0, 1]`; `None`
-/// when its values at the two ends do not bracket `iso`. Evaluates the
-/// filter on the edge only, so every cell around the edge finds the same
-/// bits (face consistency, see [`crate::filter`]).
+/// when its values at the two ends do not bracket `iso`, or `axis` is not
+/// 0, 1 or 2. Evaluates the filter on the edge only, so every cell around
+/// the edge finds the same bits (face consistency, see [`crate::filter`]).
 pub fn edge_crossing<F: ReconstructionFilter>(
     cell: &F::Cell,
     iso: f64,
     corner: DVec3,
     axis: usize,
 ) -> Option<f64> {
+    if axis > 2 {
+        return None;
+    }
     let mut dir = DVec3::ZERO;
     dir[axis] = 1.0;
     let q = |s: f64| F::value(cell, corner + dir * s) - iso;

@@ -41,9 +41,11 @@ where
         Volume::new(self.data.as_slice(), self.dims)
     }
 
-    /// Number of cells, `(nx - 1)(ny - 1)(nz - 1)`.
+    /// Number of cells, `(nx - 1)(ny - 1)(nz - 1)` (saturating at `u64::MAX`).
     pub fn cell_count(&self) -> u64 {
-        self.dims.iter().map(|&n| n.saturating_sub(1)).product()
+        self.dims
+            .iter()
+            .fold(1u64, |c, &n| c.saturating_mul(n.saturating_sub(1)))
     }
 }
 

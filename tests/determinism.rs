@@ -126,11 +126,19 @@ fn identical_for_any_thread_count() {
                     same_mesh(&one, &lent(&SerialExecutor)),
                     "{name} {cfg} {normals:?}: serial executor differs"
                 );
-                for (threads, concurrency) in [(1, 3), (2, 2), (3, 5), (4, 1)] {
+                // A host may claim any concurrency, however large.
+                for (threads, concurrency) in [
+                    (1, 3),
+                    (2, 2),
+                    (3, 5),
+                    (4, 1),
+                    (2, 1 << 62),
+                    (1, usize::MAX),
+                ] {
                     let ex = Shuffled {
                         threads,
                         concurrency,
-                        seed: 17 * threads as u64 + concurrency as u64,
+                        seed: 17 * threads as u64 + (concurrency % 1000) as u64,
                     };
                     assert!(
                         same_mesh(&one, &lent(&ex)),

@@ -400,3 +400,68 @@ fn errors_display_and_are_std_errors() {
     assert!(e.to_string().contains("11"));
     assert!(!Error::Aborted.to_string().is_empty());
 }
+
+/// `filter::evaluate` checks its cell against the volume without wrapping
+/// (`u64::MAX + 1` passed the check and read before the buffer).
+#[test]
+fn evaluate_refuses_cells_outside_the_volume() {
+    use precisemc::filter::evaluate;
+    use precisemc::Reconstruction;
+    let d = data();
+    let v = Volume::new(&d, [5, 5, 5]);
+    for cell in [
+        [u64::MAX, 0, 0],
+        [0, u64::MAX, 0],
+        [0, 0, 4],
+        [4, 0, 0],
+        [1 << 63, 1, 1],
+    ] {
+        for r in [Reconstruction::Trilinear, Reconstruction::CatmullRom] {
+            assert_eq!(
+                evaluate(&v, r, cell, [0.5; 3]),
+                Err(Error::OutOfVolume {
+                    cell,
+                    local: [0.5; 3]
+                }),
+                "{cell:?} {r:?}"
+            );
+        }
+    }
+    let bad = [0.5, 1.5, 0.5];
+    assert!(matches!(
+        evaluate(&v, Reconstruction::Trilinear, [3, 3, 3], bad),
+        Err(Error::OutOfVolume { .. })
+    ));
+    assert!(evaluate(&v, Reconstruction::Trilinear, [3, 3, 3], [1.0; 3])
+        .unwrap()
+        .is_some());
+}
+
+/// Normals stay unit vectors when the world gradient overflows (a
+/// subnormal spacing) or underflows (a huge one): they were [0, 0, 0].
+#[test]
+fn normals_survive_extreme_spacings() {
+    use precisemc::NormalMode;
+    let values = grid_fn([6, 6, 6], |x, y, z| {
+        ((x - 2.5).powi(2) + (y - 2.4).powi(2) + (z - 2.6).powi(2)).sqrt()
+    });
+    for spacing in [
+        [5e-324, 1.0, 1.0],
+        [1.0, 1e-310, 1e300],
+        [1e300, 1e300, 1e-300],
+    ] {
+        let v = Volume::new(&values, [6, 6, 6]).with_spacing(spacing);
+        for normals in [NormalMode::Gradient, NormalMode::CentralDifference] {
+            let o = Options {
+                normals,
+                ..Options::marching_cubes(precisemc::Topology::Trilinear)
+            };
+            let m = extract(&v, 1.7, &o).unwrap();
+            assert!(!m.normals.is_empty());
+            for n in &m.normals {
+                let len = n.iter().map(|c| (*c as f64).powi(2)).sum::<f64>().sqrt();
+                assert!((len - 1.0).abs() < 1e-5, "{spacing:?} {normals:?}: {n:?}");
+            }
+        }
+    }
+}

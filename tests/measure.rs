@@ -227,6 +227,15 @@ fn invalid_input_is_an_error() {
             tolerance: 0.0,
             ..o.clone()
         },
+        // Below the floor: a search that would run for hours.
+        MeasureOptions {
+            tolerance: precisemc::accuracy::MIN_TOLERANCE / 2.0,
+            ..o.clone()
+        },
+        MeasureOptions {
+            tolerance: f64::NAN,
+            ..o.clone()
+        },
         MeasureOptions {
             relative_tolerance: -1.0,
             ..o.clone()

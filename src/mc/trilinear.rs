@@ -453,7 +453,7 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
 /// Vertex ids 0..12 are cell edges; id `12 + k` is the interior point
 /// `extra[k]` (local coordinates), added where a fan would lay a triangle
 /// flat in a cell face. With `pinch`, such a fan may be centred at a pinch
-/// point of `S_K` instead (see [`fan_centre`]; for refinement, which
+/// point of `S_K` instead (see `fan_centre`; for refinement, which
 /// cannot mend a fan laid across the solid).
 pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
     let decisions = face_decisions(f);
