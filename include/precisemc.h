@@ -371,11 +371,12 @@ typedef struct pmc_distance {
      */
     double max;
     /**
-     * Mean distance, weighted by triangle area.
+     * Mean distance, weighted by triangle area (the plain mean of the
+     * sample points when the triangles measured have no area).
      */
     double mean;
     /**
-     * Root mean square distance, weighted by triangle area.
+     * Root mean square distance, weighted likewise.
      */
     double rms;
     /**

@@ -79,9 +79,11 @@ pub const MIN_TOLERANCE: f64 = 1e-8;
 pub struct Distance {
     /// Largest distance of any sample.
     pub max: f64,
-    /// Area-weighted mean distance.
+    /// Area-weighted mean distance (each sample weighs its triangle's area
+    /// over its sample count; the plain mean of the samples when the
+    /// measured triangles have no area, or too much to sum).
     pub mean: f64,
-    /// Area-weighted root mean square distance.
+    /// Area-weighted root mean square distance (likewise).
     pub rms: f64,
     /// Number of samples measured.
     pub samples: u64,
@@ -172,6 +174,9 @@ struct Sums {
     weighted: f64,
     weighted_sq: f64,
     weight: f64,
+    /// Unweighted sums, for a mesh without (summable) area.
+    plain: f64,
+    plain_sq: f64,
     samples: u64,
     unresolved: u64,
 }
@@ -195,6 +200,7 @@ fn measure_grid<T: Scalar>(
                 let [a, b, c] = t.map(|v| points[v as usize]);
                 let area = 0.5 * (b - a).cross(c - a).length();
                 let w = area / per_tri as f64;
+                let mut resolved = 0;
                 for i in 0..=n {
                     for j in 0..=n - i {
                         let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
@@ -205,13 +211,22 @@ fn measure_grid<T: Scalar>(
                                 s.max = s.max.max(d);
                                 s.weighted += w * d;
                                 s.weighted_sq += w * d * d;
+                                s.plain += d;
+                                s.plain_sq += d * d;
                                 s.samples += 1;
+                                resolved += 1;
                             }
                             None => s.unresolved += 1,
                         }
                     }
                 }
-                s.weight += area;
+                // The weight of the samples measured (all of them, nearly
+                // always: then the area itself).
+                s.weight += if resolved == per_tri {
+                    area
+                } else {
+                    w * resolved as f64
+                };
             }
             s
         })
@@ -222,14 +237,22 @@ fn measure_grid<T: Scalar>(
         total.weighted += s.weighted;
         total.weighted_sq += s.weighted_sq;
         total.weight += s.weight;
+        total.plain += s.plain;
+        total.plain_sq += s.plain_sq;
         total.samples += s.samples;
         total.unresolved += s.unresolved;
     }
-    let (mean, rms) = if total.weight > 0.0 {
-        (
-            total.weighted / total.weight,
-            (total.weighted_sq / total.weight).sqrt(),
-        )
+    let weighted = (
+        total.weighted / total.weight,
+        (total.weighted_sq / total.weight).sqrt(),
+    );
+    let (mean, rms) = if total.weight > 0.0 && weighted.0.is_finite() && weighted.1.is_finite() {
+        weighted
+    } else if total.samples > 0 {
+        // Degenerate triangles only (or areas beyond f64): every sample
+        // counts alike, so that the mean stays within [0, max].
+        let n = total.samples as f64;
+        (total.plain / n, (total.plain_sq / n).sqrt())
     } else {
         (0.0, 0.0)
     };

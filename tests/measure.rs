@@ -449,3 +449,28 @@ fn last_error() -> String {
     let n = unsafe { precisemc::ffi::pmc_last_error_message(buf.as_mut_ptr().cast(), buf.len()) };
     String::from_utf8_lossy(&buf[..n.min(buf.len() - 1)]).into_owned()
 }
+
+/// Triangles without area (collapsed onto a point or a segment) have no
+/// weight: the mean and RMS are then the plain ones of their samples,
+/// not 0 beside a positive max.
+#[test]
+fn degenerate_triangles_have_a_plain_mean() {
+    let dims = [7, 6, 8];
+    let n = [0.36f64, -0.48, 0.8];
+    let values = grid_fn(dims, |x, y, z| n[0] * x + n[1] * y + n[2] * z);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let iso = 2.05;
+    // A segment from a point on the plane to one 1.5 cells off it, as a
+    // triangle with a repeated corner: its samples lie between 0 and 1.5.
+    let a = [3.0, 2.0, 2.05 / 0.8 - (0.36 * 3.0 - 0.48 * 2.0) / 0.8];
+    let b = [a[0] + 1.5 * n[0], a[1] + 1.5 * n[1], a[2] + 1.5 * n[2]];
+    let d = measure(&vol, iso, &[a, b], &[[0, 1, 1]], &tight()).unwrap();
+    assert_eq!(d.unresolved, 0);
+    assert!((d.max - 1.5).abs() < 2e-4, "{d:?}");
+    assert!(d.mean > 0.1 && d.mean < d.max, "{d:?}");
+    assert!(d.rms >= d.mean && d.rms <= d.max, "{d:?}");
+    // With area the weighting is the area's, as before.
+    let c = [a[0] + 1.0, a[1] + 0.75, a[2]];
+    let w = measure(&vol, iso, &[a, b, c], &[[0, 1, 2]], &tight()).unwrap();
+    assert!(w.mean > 0.0 && w.mean < w.max, "{w:?}");
+}

@@ -13,9 +13,10 @@ use crate::accuracy::{measure, MeasureOptions};
 pub struct pmc_distance {
     /// Largest distance of any sample point.
     pub max: f64,
-    /// Mean distance, weighted by triangle area.
+    /// Mean distance, weighted by triangle area (the plain mean of the
+    /// sample points when the triangles measured have no area).
     pub mean: f64,
-    /// Root mean square distance, weighted by triangle area.
+    /// Root mean square distance, weighted likewise.
     pub rms: f64,
     /// Sample points measured.
     pub samples: u64,
