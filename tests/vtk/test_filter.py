@@ -367,16 +367,23 @@ def test_abort_with_smp_tools_on_the_stdthread_backend():
         vtkSMPTools.SetBackend(previous)
 
 
+def refused(image, value, fragment):
+    """A filter run on `image` that must end in an error naming `fragment`
+    and an empty output; returns the filter."""
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, value)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert errors.errors and fragment in errors.errors[-1], errors.errors
+    assert f.GetOutput().GetNumberOfPoints() == 0 and f.GetOutput().GetNumberOfPolys() == 0
+    return f
+
+
 def test_singular_direction_is_refused_before_any_work():
     image = wavelet(8)
     image.SetDirectionMatrix(1, 0, 0, 1, 0, 0, 0, 0, 1)
-    f = vtkPreciseMarchingCubes()
-    f.SetInputData(image)
-    f.SetValue(0, 150.0)
-    errors = ErrorObserver(f)
-    f.Update()
-    assert errors.errors and "singular" in errors.errors[-1]
-    assert f.GetOutput().GetNumberOfPolys() == 0
+    f = refused(image, 150.0, "singular")
     assert f.GetNumberOfExecutions() == 0
     assert f.GetNumberOfMCTriangles() == 0 and f.GetNumberOfRefinedTriangles() == 0
 
@@ -906,13 +913,7 @@ def test_library_scalar_type_and_unsupported_arrays():
     for i in range(27):
         bits.SetValue(i, i % 2)
     image.GetPointData().SetScalars(bits)
-    f = vtkPreciseMarchingCubes()
-    f.SetInputData(image)
-    f.SetValue(0, 0.5)
-    errors = ErrorObserver(f)
-    f.Update()
-    assert errors.errors and "Unsupported scalar type bit" in errors.errors[-1]
-    assert f.GetOutput().GetNumberOfPoints() == 0
+    refused(image, 0.5, "Unsupported scalar type bit")
 
 
 def test_cells_on_subcells_are_counted():
