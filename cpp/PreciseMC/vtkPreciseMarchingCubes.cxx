@@ -49,6 +49,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -154,12 +155,24 @@ void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
   };
   const vtkIdType others = static_cast<vtkIdType>(
     std::min<uint64_t>(static_cast<uint64_t>(workers - 1), count - 1));
-  std::thread helper([&drain, others]() {
-    vtkSMPTools::For(0, others, 1, [&drain](vtkIdType, vtkIdType) { drain(); });
-  });
+  std::thread helper;
+  try
+  {
+    helper = std::thread([&drain, others]() {
+      vtkSMPTools::For(0, others, 1, [&drain](vtkIdType, vtkIdType) { drain(); });
+    });
+  }
+  catch (const std::system_error&)
+  {
+    // No thread to be had: the calling thread runs every task (nothing
+    // must escape into the library's frames).
+  }
   task(taskData, 0);
   drain();
-  helper.join();
+  if (helper.joinable())
+  {
+    helper.join();
+  }
 }
 
 struct OptionsDeleter
@@ -675,7 +688,6 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
     flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
   }
-
 
   // The first sample read (of the contoured extent, or of its ghost layer),
   // as a value index.
