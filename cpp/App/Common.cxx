@@ -155,6 +155,13 @@ private:
 };
 vtkStandardNewMacro(CaptureOutputWindow);
 
+// The last component of a path: "a/b.vtp" -> "b.vtp", "b.vtp" -> "b.vtp".
+std::string FileNameOf(const std::string& path)
+{
+  size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
 std::string DirectoryOf(const std::string& path)
 {
   size_t slash = path.find_last_of('/');
@@ -222,8 +229,7 @@ StderrSilenced::~StderrSilenced()
 
 std::string Extension(const std::string& path)
 {
-  size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  std::string name = FileNameOf(path);
   std::transform(name.begin(), name.end(), name.begin(),
     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   for (const char* twoPart : { ".nii.gz", ".tar.gz" })
@@ -289,8 +295,6 @@ void CheckWritable(const std::string& path, const std::string& what)
 
 std::string CanonicalPath(const std::string& path)
 {
-  size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
   char* dir = realpath(DirectoryOf(path).c_str(), nullptr);
   if (!dir)
   {
@@ -298,15 +302,14 @@ std::string CanonicalPath(const std::string& path)
   }
   std::string out = dir;
   std::free(dir);
-  return (out == "/" ? out : out + "/") + name;
+  return (out == "/" ? out : out + "/") + FileNameOf(path);
 }
 
 std::string TemporaryPathFor(const std::string& path)
 {
   static unsigned long counter = 0;
-  size_t slash = path.find_last_of('/');
-  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
-  std::string prefix = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+  std::string name = FileNameOf(path);
+  std::string prefix = path.substr(0, path.size() - name.size());
   // The extension stays last: some writers (vtkPLYWriter) append theirs
   // to a name that does not end with it.
   std::string ext = Extension(name);

@@ -314,10 +314,6 @@ Options ParseArguments(int argc, char* argv[])
   {
     Usage("--measure prints its distances in the table, which --quiet turns off");
   }
-  if (!o.Compare.empty() && o.Compare == o.Distance)
-  {
-    Usage("--compare and --distance name the same file '" + o.Compare + "'");
-  }
   return o;
 }
 
