@@ -17,6 +17,7 @@
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
 #include "vtkDataArray.h"
+#include "vtkDataSetAttributes.h"
 #include "vtkDoubleArray.h"
 #include "vtkExtentTranslator.h"
 #include "vtkFloatArray.h"
@@ -82,9 +83,11 @@ constexpr int CubicGhostSamples = 2;
 // level 3 up): such a cell joins its fine outline to the old one by a
 // strip in each face, and where the cell across the face is meshed again
 // too the two strips cancel, in the serial run, which a piece sees only
-// with the cells across its faces. Otherwise none: image pieces share
-// their boundary samples, all the trilinear filter needs.
-int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel)
+// with the cells across its faces; and one for normals, whose gradient at a
+// point on the piece's face takes the cell (or the samples) beyond it, as
+// the serial run does. Otherwise none: image pieces share their boundary
+// samples, all the trilinear filter's surface needs.
+int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel, bool normals)
 {
   if (reconstruction != vtkPreciseMarchingCubes::RECONSTRUCTION_TRILINEAR)
   {
@@ -92,7 +95,76 @@ int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel)
   }
   const bool subcells = topology == vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR &&
     epsilon > 0.0 && maxLevel >= 3;
-  return subcells ? 1 : 0;
+  return subcells || normals ? 1 : 0;
+}
+
+// Whether `dataExtent` is piece `piece` of `pieces` of `splitExtent`, as
+// vtkExtentTranslator cuts it in `splitMode` (without ghost levels: an
+// input that holds ghost levels has ghost arrays, which tell its own cells
+// instead; see OwnCells()).
+bool SplitAsAsked(
+  const int dataExtent[6], int piece, int pieces, const int splitExtent[6], int splitMode)
+{
+  vtkNew<vtkExtentTranslator> translator;
+  int extent[6];
+  return translator->PieceToExtentThreadSafe(
+           piece, pieces, 0, const_cast<int*>(splitExtent), extent, splitMode, 0) &&
+    std::equal(extent, extent + 6, dataExtent);
+}
+
+// The point extent of the cells of `input` (extent `dataExtent`) that its
+// cell ghost array does not mark as duplicates, into `piece` (the whole
+// `dataExtent` without such an array); false when every cell is a ghost.
+// For an input that arrives split otherwise than the filter asked (an
+// upstream filter that splits the volume its own way, as Resample To
+// Image does): the pieces' own cells then still cover the volume once,
+// where cropping to the piece asked for left a slab between two pieces
+// that neither contoured.
+bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
+{
+  std::copy(dataExtent, dataExtent + 6, piece);
+  vtkUnsignedCharArray* ghosts = input->GetCellGhostArray();
+  vtkIdType cells[3];
+  for (int i = 0; i < 3; ++i)
+  {
+    cells[i] = static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i];
+  }
+  if (!ghosts || cells[0] < 1 || cells[1] < 1 || cells[2] < 1 ||
+    ghosts->GetNumberOfTuples() != cells[0] * cells[1] * cells[2])
+  {
+    return true;
+  }
+  vtkIdType lo[3] = { cells[0], cells[1], cells[2] };
+  vtkIdType hi[3] = { -1, -1, -1 };
+  const unsigned char* flag = ghosts->GetPointer(0);
+  for (vtkIdType k = 0; k < cells[2]; ++k)
+  {
+    for (vtkIdType j = 0; j < cells[1]; ++j)
+    {
+      for (vtkIdType i = 0; i < cells[0]; ++i, ++flag)
+      {
+        if (!(*flag & vtkDataSetAttributes::DUPLICATECELL))
+        {
+          const vtkIdType at[3] = { i, j, k };
+          for (int d = 0; d < 3; ++d)
+          {
+            lo[d] = std::min(lo[d], at[d]);
+            hi[d] = std::max(hi[d], at[d]);
+          }
+        }
+      }
+    }
+  }
+  if (hi[0] < 0)
+  {
+    return false;
+  }
+  for (int d = 0; d < 3; ++d)
+  {
+    piece[2 * d] = dataExtent[2 * d] + static_cast<int>(lo[d]);
+    piece[2 * d + 1] = dataExtent[2 * d] + static_cast<int>(hi[d]) + 1;
+  }
+  return true;
 }
 
 // Asks Linux for transparent huge pages behind a large output array that
@@ -349,7 +421,12 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   {
     this->ContourExtent[2 * i] = VTK_INT_MAX;
     this->ContourExtent[2 * i + 1] = VTK_INT_MIN;
+    this->ContourSplitExtent[2 * i] = VTK_INT_MAX;
+    this->ContourSplitExtent[2 * i + 1] = VTK_INT_MIN;
   }
+  this->ContourPiece = 0;
+  this->ContourPieces = 1;
+  this->ContourSplitMode = vtkExtentTranslator::BLOCK_MODE;
 
   // By default process active point scalars.
   this->SetInputArrayToProcess(
@@ -581,30 +658,81 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   // samples, so it reads all the input holds (the whole volume, as
   // requested).
   const int ghostSamples =
-    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
+    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel,
+      this->ComputeNormals != 0);
   int sampleExtent[6];
   std::copy(extent, extent + 6, sampleExtent);
   if (this->HasContourExtent)
   {
+    const bool global = this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING;
+    int whole[6];
+    std::copy(dataExtent, dataExtent + 6, whole);
+    if (inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    }
+    // A distributed piece's own cells: those its ghost array does not
+    // mark as duplicates; without one, the piece asked for, unless the
+    // input is neither that nor the whole volume (split by an upstream
+    // filter its own way, as Resample To Image does: then all its cells).
+    int piece[6];
+    std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
+    const bool ownSplit = this->ContourPieces > 1 &&
+      (input->GetCellGhostArray() != nullptr ||
+        (!std::equal(dataExtent, dataExtent + 6, whole) &&
+          !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
+            this->ContourSplitExtent, this->ContourSplitMode)));
+    if (ownSplit && !OwnCells(input, dataExtent, piece))
+    {
+      vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");
+      return 1;
+    }
     for (int i = 0; i < 3; ++i)
     {
-      if (this->ContourExtent[2 * i] > this->ContourExtent[2 * i + 1])
+      if (piece[2 * i] > piece[2 * i + 1])
       {
         vtkDebugMacro(<< "Empty piece");
         return 1;
       }
     }
-    const bool global = this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING;
     for (int i = 0; i < 3; ++i)
     {
-      extent[2 * i] = std::max(dataExtent[2 * i], this->ContourExtent[2 * i]);
-      extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], this->ContourExtent[2 * i + 1]);
+      extent[2 * i] = std::max(dataExtent[2 * i], piece[2 * i]);
+      extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], piece[2 * i + 1]);
       sampleExtent[2 * i] = global
         ? dataExtent[2 * i]
         : std::max(dataExtent[2 * i], extent[2 * i] - ghostSamples);
       sampleExtent[2 * i + 1] = global
         ? dataExtent[2 * i + 1]
         : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + ghostSamples);
+    }
+    // Without the samples around the piece that the run needs (see
+    // GhostSamples()), the surface next to a cut may differ from the
+    // serial one: say so.
+    bool short_of_samples = false;
+    for (int i = 0; ownSplit && i < 3; ++i)
+    {
+      const int want = global ? std::numeric_limits<int>::max() : ghostSamples;
+      short_of_samples = short_of_samples ||
+        (want > 0 && extent[2 * i] > whole[2 * i] &&
+          extent[2 * i] - sampleExtent[2 * i] < std::min(want, extent[2 * i] - whole[2 * i])) ||
+        (want > 0 && extent[2 * i + 1] < whole[2 * i + 1] &&
+          sampleExtent[2 * i + 1] - extent[2 * i + 1] <
+            std::min(want, whole[2 * i + 1] - extent[2 * i + 1]));
+    }
+    if (short_of_samples)
+    {
+      vtkWarningMacro(<< "The input arrived as the piece (" << dataExtent[0] << ".."
+                      << dataExtent[1] << ", " << dataExtent[2] << ".." << dataExtent[3] << ", "
+                      << dataExtent[4] << ".." << dataExtent[5] << ") instead of the one asked for ("
+                      << this->ContourExtent[0] << ".." << this->ContourExtent[1] << ", "
+                      << this->ContourExtent[2] << ".." << this->ContourExtent[3] << ", "
+                      << this->ContourExtent[4] << ".." << this->ContourExtent[5]
+                      << "), without the samples around it that "
+                      << (global ? "the B-Spline Interpolating prefilter"
+                                 : "normals, a cubic filter or refinement on sub-cells")
+                      << " read: its own cells are contoured, and next to its faces the "
+                         "surface may differ from a serial run's");
     }
   }
   int dims[3];
@@ -1179,8 +1307,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     for (int a = 0; a < inPD->GetNumberOfArrays(); ++a)
     {
       vtkAbstractArray* array = inPD->GetAbstractArray(a);
+      // Not the ghost flags of a distributed input: a serial run has none.
       if (array == inScalars || array == nullptr ||
-        array->GetNumberOfTuples() != input->GetNumberOfPoints())
+        array->GetNumberOfTuples() != input->GetNumberOfPoints() ||
+        (array->GetName() &&
+          std::string(array->GetName()) == vtkDataSetAttributes::GhostArrayName()))
       {
         continue;
       }
@@ -1197,10 +1328,9 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       outPD->InterpolateAllocate(source, numPts);
       vtkNew<vtkIdList> cellPts;
-      cellPts->SetNumberOfIds(8);
       double weights[8];
-      // Cells are indexed in the input's arrays (dataExtent) and clamped to
-      // the contoured extent.
+      // Cells are clamped to the contoured extent and indexed in the
+      // input's arrays (dataExtent).
       const vtkIdType sliceSize = static_cast<vtkIdType>(dataDims[0]) * dataDims[1];
       for (vtkIdType i = 0; i < numPts; ++i)
       {
@@ -1208,23 +1338,34 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
         double r[3];
         for (int d = 0; d < 3; ++d)
         {
-          double local = indexPoints[3 * i + d] - dataExtent[2 * d];
-          int c0 = static_cast<int>(std::floor(local));
-          const int lo = extent[2 * d] - dataExtent[2 * d];
-          c0 = std::max(lo, std::min(lo + dims[d] - 2, c0));
-          cell[d] = c0;
-          r[d] = std::max(0.0, std::min(1.0, local - c0));
+          // In global index coordinates, as the points are: every piece
+          // computes the same weights for a point (bit for bit).
+          const double at = indexPoints[3 * i + d];
+          const double c0 = std::max<double>(
+            extent[2 * d], std::min<double>(extent[2 * d + 1] - 1, std::floor(at)));
+          cell[d] = static_cast<int>(c0) - dataExtent[2 * d];
+          r[d] = std::max(0.0, std::min(1.0, at - c0));
         }
         const vtkIdType base = cell[0] + cell[1] * static_cast<vtkIdType>(dataDims[0]) +
           cell[2] * sliceSize;
+        // Only the corners that count: a point on a face or an edge of the
+        // cell (most are) takes nothing from the corners off it, not even
+        // a NaN (0 x NaN would be NaN), and so gets the same value whichever
+        // cell it is placed in (a distributed run clamps some to another).
+        cellPts->Reset();
+        int used = 0;
         for (int corner = 0; corner < 8; ++corner)
         {
           const int di = corner & 1;
           const int dj = (corner >> 1) & 1;
           const int dk = (corner >> 2) & 1;
-          cellPts->SetId(corner, base + di + dj * dataDims[0] + dk * sliceSize);
-          weights[corner] = (di ? r[0] : 1.0 - r[0]) * (dj ? r[1] : 1.0 - r[1]) *
+          const double w = (di ? r[0] : 1.0 - r[0]) * (dj ? r[1] : 1.0 - r[1]) *
             (dk ? r[2] : 1.0 - r[2]);
+          if (w != 0.0)
+          {
+            cellPts->InsertNextId(base + di + dj * dataDims[0] + dk * sliceSize);
+            weights[used++] = w;
+          }
         }
         outPD->InterpolatePoint(source, i, cellPts, weights);
       }
@@ -1279,7 +1420,8 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   }
   int ghostLevels = 0;
   const int ghostSamples =
-    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel);
+    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel,
+      this->ComputeNormals != 0);
   if (outInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
@@ -1299,6 +1441,9 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
       : 1;
     // The piece as the source splits it (without ghost levels).
     this->HasContourExtent = true;
+    std::copy(update, update + 6, this->ContourSplitExtent);
+    this->ContourPiece = piece;
+    this->ContourPieces = std::max(1, numPieces);
     if (numPieces > 1)
     {
       int splitMode = vtkExtentTranslator::BLOCK_MODE;
@@ -1306,6 +1451,7 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
       {
         splitMode = inInfo->Get(vtkExtentTranslator::UPDATE_SPLIT_MODE());
       }
+      this->ContourSplitMode = splitMode;
       vtkNew<vtkExtentTranslator> translator;
       if (!translator->PieceToExtentThreadSafe(
             piece, numPieces, 0, update, this->ContourExtent, splitMode, 0))

@@ -53,10 +53,13 @@
  *
  * In a distributed pipeline each piece contours the input cropped to the
  * requested update extent. For plain Marching Cubes with the trilinear
- * reconstruction filter (the default) no ghost levels are requested from
- * the input: image pieces share their boundary samples, so the union of
- * the pieces' surfaces is the surface of the whole volume, without cracks
- * or overlaps. Refining with the trilinear topology from MaxLevel 3 up, a
+ * reconstruction filter (the default) and no normals, no ghost levels are
+ * requested from the input: image pieces share their boundary samples, so
+ * the union of the pieces' surfaces is the surface of the whole volume,
+ * without cracks or overlaps. Normals at a point on a piece's face read
+ * the samples beyond it, so with ComputeNormals on the filter asks for one
+ * ghost level and keeps only the triangles of the piece's own cells (as
+ * below). Refining with the trilinear topology from MaxLevel 3 up, a
  * cell where refinement stalls is meshed again on sub-cells, and its strips
  * in a face cancel against those of a neighbour meshed again too: the
  * filter then asks for one ghost level, contours the cells across the
@@ -67,7 +70,14 @@
  * prefilter is global, asks for the whole volume), likewise. The union is
  * in every case exactly the serial surface (see
  * SetReconstructionFilter()), unless MaxTriangles lowers a piece's level:
- * each piece meets the cap on its own (see SetMaxTriangles()).
+ * each piece meets the cap on its own (see SetMaxTriangles()). An input
+ * that an upstream filter split its own way (neither the piece asked for
+ * nor the whole volume, as Resample To Image delivers) is contoured on its
+ * own cells (those its ghost array does not mark as duplicates), so the
+ * pieces still cover the volume once; without the ghost layer the run
+ * needs, the surface next to the cuts may then differ from the serial one,
+ * and the filter warns. InterpolateAttributes gives every point the same
+ * values in every piece, and never interpolates the input's ghost flags.
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
  * parallel over all cores unless NumberOfThreads is set, or on
@@ -557,6 +567,14 @@ protected:
   // whole extent known) the update extent is contoured.
   int ContourExtent[6];
   bool HasContourExtent;
+  // How RequestUpdateExtent() split the volume for ContourExtent: the
+  // extent split, the piece, the number of pieces and the split mode of
+  // vtkExtentTranslator (ContourPieces 1: not split). RequestData() tells
+  // from them whether the input arrived split that way.
+  int ContourSplitExtent[6];
+  int ContourPiece;
+  int ContourPieces;
+  int ContourSplitMode;
 
 private:
   vtkPreciseMarchingCubes(const vtkPreciseMarchingCubes&) = delete;

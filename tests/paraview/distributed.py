@@ -10,9 +10,14 @@ triangles of each configuration, as coordinate triples in a canonical form
 orientation; the list sorted), are saved to OUT.npz. With REFERENCE.npz (the
 serial run's file) they must be exactly equal: same triangles, same
 orientation, bit-identical vertices on piece boundaries, nothing missing or
-doubled. Prints "ok ..." or "FAIL ..." per configuration (pvbatch's exit
-status does not tell: a script ending early under MPI aborts the other
-ranks, so the script always runs to its end).
+doubled. The point data the filter writes goes with each vertex (normals,
+scalars, the interpolated attributes) and must be equal too, and so must
+the names of the point arrays (a distributed input's ghost flags must not
+leak into the output). Besides the Wavelet, which splits as the filter asks,
+an image source that splits the volume its own way (as Resample To Image
+does) must give the serial surface too. Prints "ok ..." or "FAIL ..." per
+configuration (pvbatch's exit status does not tell: a script ending early
+under MPI aborts the other ranks, so the script always runs to its end).
 """
 import sys
 
@@ -27,8 +32,20 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 # layers that refinement on sub-cells or a cubic filter needs, and outputs
 # only its cells).
 # "same_as": the serial configuration whose triangles it must equal.
+# "input": "wavelet" (the default), "attributes" (the Wavelet with a second
+# point array, "aux") or "own-split" (OWN_SPLIT_SOURCE below: no ghost
+# levels, so only runs that need none, without normals).
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
+    # Normals read the samples beyond the piece's faces (one ghost level);
+    # without them none is asked for.
+    "mc-no-normals": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0),
+    "mc-central-differences": dict(Epsilon=0.0, MaxLevel=0, NormalMode="Central Difference"),
+    "mc-attributes": dict(Epsilon=0.0, MaxLevel=0, InterpolateAttributes=1, input="attributes"),
+    "refined-attributes": dict(Epsilon=0.01, MaxLevel=5, InterpolateAttributes=1,
+                               input="attributes"),
+    "own-split-mc": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0, input="own-split"),
+    "own-split-refined": dict(Epsilon=0.01, MaxLevel=2, ComputeNormals=0, input="own-split"),
     "refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1"),
     # After "refined", which asks for a ghost level (a cell may be meshed
     # again on sub-cells): the shared Wavelet still holds that layer, which
@@ -52,14 +69,75 @@ info.Set(sddp.UPDATE_NUMBER_OF_GHOST_LEVELS(), 1)
 """
 ISOVALUES = [130.0, 190.0]
 EXTENT = [-16, 16, -16, 16, -16, 16]
+# A second point array for InterpolateAttributes, with NaN on one plane of
+# samples: a point on a face or an edge of a cell takes nothing from the
+# corners off it, so only the points next to that plane may be NaN.
+AUX = "aux"
+AUX_EXPRESSION = "RTData * 0.5 + coordsX - 2 * coordsZ + if(coordsY == 3, sqrt(-1), 0)"
+
+# An image source that cuts the volume along x its own way (not as
+# vtkExtentTranslator does, and with no ghost levels, as Resample To Image
+# does), with values that do not depend on the cut.
+OWN_SPLIT_INFORMATION = """
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
+self.GetOutputInformation(0).Set(sddp.WHOLE_EXTENT(), 0, 30, 0, 26, 0, 22)
+"""
+OWN_SPLIT_SOURCE = """
+# (min and max are ParaView's array functions in this script's namespace.)
+from builtins import max, min
+import numpy as np
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
+info = self.GetOutputInformation(0)
+piece = info.Get(sddp.UPDATE_PIECE_NUMBER()) if info.Has(sddp.UPDATE_PIECE_NUMBER()) else 0
+pieces = info.Get(sddp.UPDATE_NUMBER_OF_PIECES()) if info.Has(sddp.UPDATE_NUMBER_OF_PIECES()) else 1
+cuts = [0] + [min(30, (30 * k + pieces // 2 + 1) // pieces + 1) for k in range(1, pieces)] + [30]
+x0, x1 = cuts[piece], max(cuts[piece], cuts[piece + 1])
+out = self.GetOutput()
+out.SetExtent(x0, x1, 0, 26, 0, 22)
+k, j, i = np.meshgrid(np.arange(23.0), np.arange(27.0), np.arange(x0, x1 + 1.0), indexing="ij")
+f = np.sin(0.35 * i) * np.cos(0.3 * j) + np.sin(0.25 * k + 0.1 * i) + 0.02 * (i - 15) ** 2
+a = numpy_to_vtk(np.ascontiguousarray(f.ravel()), deep=1)
+a.SetName("RTData")
+out.GetPointData().SetScalars(a)
+"""
+OWN_SPLIT_ISOVALUES = [0.4, 1.3]
+
+
+def point_arrays(poly):
+    """The point arrays a run compares: all but ParaView's ProcessId."""
+    pd = poly.GetPointData()
+    names = [pd.GetArrayName(a) for a in range(pd.GetNumberOfArrays())]
+    return sorted(n for n in names if n and n != "ProcessId")
+
+
+def column_of(poly, name):
+    """The column of a vertex's row in canonical() holding array `name`."""
+    pd = poly.GetPointData()
+    column = 3
+    for a in point_arrays(poly):
+        if a == name:
+            return column
+        column += pd.GetArray(a).GetNumberOfComponents()
+    raise KeyError(name)
 
 
 def canonical(poly):
-    """Triangles of a vtkPolyData as a sorted (n, 9) float64 array."""
+    """Triangles of a vtkPolyData as a sorted (n, 9 + 3 k) float64 array:
+    each vertex's coordinates, then its values of the point arrays
+    (point_arrays(), k components in all)."""
     n = poly.GetNumberOfCells()
+    names = point_arrays(poly)
+    pd = poly.GetPointData()
+    width = 3
+    for a in names:
+        width += pd.GetArray(a).GetNumberOfComponents()
     if n == 0:
-        return np.zeros((0, 9)), np.zeros(0, dtype=np.int64)
+        return np.zeros((0, 3 * width)), np.zeros(0, dtype=np.int64)
     points = vtk_to_numpy(poly.GetPoints().GetData()).astype(np.float64)
+    values = [points] + [vtk_to_numpy(pd.GetArray(a)).astype(np.float64).reshape(len(points), -1)
+                         for a in names]
+    per_point = np.concatenate(values, axis=1)
     polys = poly.GetPolys()
     assert polys.GetNumberOfCells() == n, "only triangles expected"
     offsets = vtk_to_numpy(polys.GetOffsetsArray())
@@ -67,6 +145,7 @@ def canonical(poly):
     assert np.all(np.diff(offsets) == 3), "only triangles expected"
     tris = conn.reshape(-1, 3)
     xyz = points[tris]  # (n, 3 vertices, 3 coordinates)
+    rows = per_point[tris]  # (n, 3 vertices, width)
     # Rotate each triangle so that its lexicographically smallest vertex
     # comes first (a rotation keeps the orientation).
     first = np.zeros(n, dtype=np.int64)
@@ -76,11 +155,14 @@ def canonical(poly):
             (a[:, 1] < b[:, 1]) | ((a[:, 1] == b[:, 1]) & (a[:, 2] < b[:, 2]))))
         first[smaller] = k
     order = (first[:, None] + np.arange(3)[None, :]) % 3
-    rotated = xyz[np.arange(n)[:, None], order].reshape(n, 9)
+    rotated = rows[np.arange(n)[:, None], order].reshape(n, 3 * width)
     ranks = np.zeros(n, dtype=np.int64)
     pid = poly.GetPointData().GetArray("ProcessId")
     if pid is not None:
         ranks = vtk_to_numpy(pid).astype(np.int64)[tris[:, 0]]
+    # NaN values (of an interpolated attribute) sort and compare as one
+    # value: replaced by the largest number.
+    rotated = np.where(np.isnan(rotated), np.finfo(np.float64).max, rotated)
     keys = np.lexsort(rotated.T[::-1])
     return rotated[keys], ranks[keys]
 
@@ -93,16 +175,28 @@ def main():
     print(f"ranks: {ranks}")
 
     wavelet = pvs.Wavelet(WholeExtent=EXTENT)
+    inputs = {
+        "wavelet": (wavelet, ISOVALUES),
+        "attributes": (pvs.Calculator(Input=wavelet, ResultArrayName=AUX,
+                                      Function=AUX_EXPRESSION, ReplaceInvalidResults=0),
+                       ISOVALUES),
+        "own-split": (pvs.ProgrammableSource(OutputDataSetType="vtkImageData",
+                                             Script=OWN_SPLIT_SOURCE,
+                                             ScriptRequestInformation=OWN_SPLIT_INFORMATION),
+                      OWN_SPLIT_ISOVALUES),
+    }
     results = {}
     failed = 0
     for name, props in CONFIGS.items():
         props = dict(props)
         ghosts = props.pop("ghosts", False)
         same_as = props.pop("same_as", name)
+        input_name = props.pop("input", "wavelet")
+        source, isovalues = inputs[input_name]
         contour = pvs.PreciseContour(
-            Input=wavelet,
+            Input=source,
             ContourBy=["POINTS", "RTData"],
-            Isosurfaces=ISOVALUES,
+            Isosurfaces=isovalues,
             OutputPointsPrecision="Double",
             NumberOfThreads=1,
             **props,
@@ -119,8 +213,19 @@ def main():
         tris, owner = canonical(poly)
         results[name] = tris
         results[name + "-ranks"] = owner
+        results[name + "-arrays"] = np.array(point_arrays(poly))
         counts = np.bincount(owner, minlength=ranks)
         line = f"{name}: {len(tris)} triangles, per rank {counts.tolist()}"
+        if input_name == "attributes" and len(tris):
+            # NaN only next to the plane y = 3 (see AUX_EXPRESSION).
+            rows = tris.reshape(-1, tris.shape[1] // 3)
+            nan = rows[:, column_of(poly, AUX)] == np.finfo(np.float64).max
+            stray = nan & ((rows[:, 1] <= 2.0) | (rows[:, 1] >= 4.0))
+            if not nan.any() or stray.any():
+                failed += 1
+                print(f"FAIL {name}: {int(nan.sum())} vertices with a NaN {AUX}, "
+                      f"{int(stray.sum())} of them away from the plane of NaN samples")
+                continue
         if reference is None:
             print(line)
             continue
@@ -128,14 +233,20 @@ def main():
         problems = []
         if ranks > 1 and np.any(counts == 0):
             problems.append("a rank produced no triangles (volume not split?)")
-        if tris.shape != ref.shape:
+        arrays = point_arrays(poly)
+        ref_arrays = reference[same_as + "-arrays"].tolist()
+        if arrays != ref_arrays:
+            problems.append(f"point arrays {arrays}, serial run {ref_arrays}")
+        elif tris.shape != ref.shape:
             problems.append(f"{len(tris)} triangles, serial run {len(ref)}")
         elif not np.array_equal(tris, ref):
             differ = np.any(tris != ref, axis=1)
-            problems.append(f"{int(differ.sum())} triangles differ from the serial run")
+            problems.append(f"{int(differ.sum())} triangles (with their point data) "
+                            "differ from the serial run")
         # Vertices on piece boundaries: the same coordinates used by the
         # triangles of several ranks.
-        vertices = tris.reshape(-1, 3)
+        width = tris.shape[1] // 3
+        vertices = tris.reshape(-1, width)[:, :3]
         vertex_ranks = np.repeat(owner, 3)
         unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
         inverse = inverse.reshape(-1)
@@ -144,7 +255,7 @@ def main():
         np.minimum.at(lo, inverse, vertex_ranks)
         np.maximum.at(hi, inverse, vertex_ranks)
         shared = int(np.sum(lo != hi))
-        ref_unique = len(np.unique(ref.reshape(-1, 3), axis=0))
+        ref_unique = len(np.unique(ref.reshape(-1, ref.shape[1] // 3)[:, :3], axis=0))
         if len(unique) != ref_unique:
             problems.append(f"{len(unique)} distinct vertices, serial run {ref_unique}")
         if ranks > 1 and shared == 0:
