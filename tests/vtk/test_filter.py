@@ -222,6 +222,30 @@ def test_interpolate_attributes_matches_probe_filter():
     assert np.all(vtk_to_numpy(scalars) == 150.0)
 
 
+@pytest.mark.parametrize("epsilon", [0.0, 0.01])
+def test_interpolated_attributes_take_only_the_corners_that_count(epsilon):
+    # f = x on a 6 x 7 x 5 grid, contoured at 2.5: every point lies on an x
+    # edge, halfway. The other array is NaN on the sample plane y = 4 and
+    # 10 + y elsewhere: a point on the plane y = 3 (or 5) takes nothing from
+    # it, so only points strictly between y = 3 and y = 5 may be NaN.
+    k, j, i = np.meshgrid(np.arange(5.0), np.arange(7.0), np.arange(6.0), indexing="ij")
+    image = image_from_array(i)
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+
+    aux = np.where(j == 4.0, np.nan, 10.0 + j)
+    array = numpy_to_vtk(aux.ravel(), deep=1)
+    array.SetName("aux")
+    image.GetPointData().AddArray(array)
+    out = precise(image, [2.5], Epsilon=epsilon, InterpolateAttributes=True).GetOutput()
+    assert out.GetNumberOfPoints() > 0
+    y = points(out)[:, 1]
+    values = vtk_to_numpy(out.GetPointData().GetArray("aux"))
+    away = (y <= 3.0) | (y >= 5.0)
+    assert np.isfinite(values[away]).all()
+    assert np.allclose(values[away], 10.0 + y[away], rtol=0, atol=1e-12)
+    assert np.isnan(values[~away]).all()
+
+
 def test_refined_vertices_on_trilinear_surface(rng):
     values = rng.random((10, 11, 12))
     f = precise(image_from_array(values), [0.5], ComputeLevels=True)
