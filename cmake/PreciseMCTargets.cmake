@@ -27,9 +27,18 @@ function(precisemc_define_targets prefix libdir incdir native_libs)
   endif()
   set_target_properties(${prefix}precisemc PROPERTIES
     INTERFACE_INCLUDE_DIRECTORIES "${incdir}")
+  # As linker flags (-lm), not names: a plain name would link a consumer's
+  # own target of that name (a library called util or m) instead.
+  set(_native "")
+  foreach(_lib IN LISTS native_libs)
+    if(NOT WIN32 AND NOT _lib MATCHES "^[-/]")
+      set(_lib "-l${_lib}")
+    endif()
+    list(APPEND _native "${_lib}")
+  endforeach()
   set_target_properties(${prefix}precisemc_static PROPERTIES
     IMPORTED_LOCATION "${_static}"
     IMPORTED_LINK_INTERFACE_LANGUAGES "C"
     INTERFACE_INCLUDE_DIRECTORIES "${incdir}"
-    INTERFACE_LINK_LIBRARIES "${native_libs}")
+    INTERFACE_LINK_LIBRARIES "${_native}")
 endfunction()

@@ -161,8 +161,11 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             # The static one must not need libprecisemc.so.
             ! ldd "$dir/consumer_static" | grep -q libprecisemc
     }
-    run_test cmake_consumer_install consumer install -DCMAKE_PREFIX_PATH="$PREFIX"
-    run_test cmake_consumer_build_tree consumer build-tree -DPreciseMC_DIR="$CB"
+    version=$(sed -n 's/^#define PMC_VERSION_STRING "\(.*\)"/\1/p' "$ROOT/include/precisemc.h")
+    run_test cmake_consumer_install consumer install -DCMAKE_PREFIX_PATH="$PREFIX" \
+        -DPMC_EXPECTED_VERSION="$version"
+    run_test cmake_consumer_build_tree consumer build-tree -DPreciseMC_DIR="$CB" \
+        -DPMC_EXPECTED_VERSION="$version"
 
     pkgconfig_consumer() { # pkgconfig_consumer shared|static
         local pc=(env PKG_CONFIG_PATH="$PREFIX/lib/pkgconfig" pkg-config)
@@ -176,13 +179,14 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" $libs \
                 -Wl,-rpath,"$libdir" -o "$exe"
         else
-            libs=$("${pc[@]}" --static --libs-only-l precisemc)
+            # precisemc-static.pc names the archive itself.
+            libs=$("${pc[@]}" --libs precisemc-static)
             # shellcheck disable=SC2086
-            gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" \
-                "$libdir/libprecisemc.a" ${libs//-lprecisemc/} -o "$exe"
+            gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" $libs -o "$exe"
             ! ldd "$exe" | grep -q libprecisemc || return 1
+            [[ $("${pc[@]}" --modversion precisemc-static) == "$version" ]] || return 1
         fi
-        [[ $("${pc[@]}" --modversion precisemc) == "$(sed -n 's/^#define PMC_VERSION_STRING "\(.*\)"/\1/p' "$ROOT/include/precisemc.h")" ]] &&
+        [[ $("${pc[@]}" --modversion precisemc) == "$version" ]] &&
             "$exe"
     }
     run_test pkgconfig_shared pkgconfig_consumer shared
