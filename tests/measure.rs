@@ -387,13 +387,16 @@ fn c_api_names_points_beyond_the_index_range() {
             unsafe { pmc_measure_distance(cv, 0.5, pts.as_ptr(), 3, tri.as_ptr(), 1, 0, &mut out) };
         (s, last_error())
     };
-    let far = [0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 1e300, 0.0, 0.0];
+    let far = [0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 1e300, -1e300, 1e300];
     let (s, msg) = call(&cv, &far);
     assert_eq!(s, PmcStatus::InvalidArgument);
     assert!(
         msg.contains("point 2 (") && msg.contains("outside the volume's representable index range"),
         "{msg}"
     );
+    // Long numbers in scientific notation: the message fits the 256-byte
+    // buffer the documentation suggests (it was over 1000 bytes).
+    assert!(msg.len() < 256 && msg.contains("1e300"), "{} bytes: {msg}", msg.len());
     let mut nan = far;
     nan[6] = f64::NAN;
     let (s, msg) = call(&cv, &nan);

@@ -104,7 +104,9 @@ pub unsafe extern "C" fn pmc_measure_distance(
                 return Err(Failure::invalid(format!(
                     "point {i} ({}, {}, {}) is outside the volume's representable index \
                      range: (point - origin) / spacing overflows",
-                    p[0], p[1], p[2]
+                    crate::error::Number(p[0]),
+                    crate::error::Number(p[1]),
+                    crate::error::Number(p[2])
                 )));
             }
             index_points.push(q);
