@@ -265,8 +265,9 @@ pub(crate) struct SlabOut {
     pub mc_tris: u64,
     pub ambiguous: u64,
     pub nonfinite: u64,
-    /// Bytes of scratch buffers that could not be allocated (the slab
-    /// stopped before its first cell; the extraction fails).
+    /// Bytes of buffers that could not be allocated (the slab stopped
+    /// before its first cell, or before refining a cell; the extraction
+    /// fails).
     pub scratch_failed: usize,
     pub counters: Counters,
     /// Time spent refining the timed cells, of `refined_cells` refined
@@ -352,6 +353,11 @@ const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 15;
 /// Marschner-Lobb 41^3, 28 356: 0.75 against 0.63). The output does not
 /// depend on it.
 const SERIAL_ASSEMBLY_TRIANGLES: usize = 1 << 16;
+
+/// The most leaves a refined cell's patch can have (its Marching Cubes
+/// triangles times 4^max_level) for which the slab's buffers are reserved
+/// for the whole patch before refining it (fallibly; see `slab_pass`).
+const CELL_RESERVE_LIMIT: u64 = 1 << 16;
 
 /// With refinement off, the fewest cell layers a slab gets while there
 /// are more slabs than workers.
@@ -1226,6 +1232,34 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 let (t_start, v_start) = (out.tris.len(), out.verts.len());
                 let before = out.counters.clone();
                 local.clear();
+                // Room for the cell's whole refined patch, reserved up front
+                // where its worst case is modest (4^max_level leaves per
+                // Marching Cubes triangle, up to max level 6 or 7; the
+                // slab's map gets the points its boundary edges can split
+                // into): the slab's buffers, the large allocations, then
+                // grow here, where a failure is an error, and not while the
+                // patch is emitted, where it would abort the process.
+                if !count_only {
+                    let level = sh.max_level.min(31);
+                    let worst = (kept.len() as u64).saturating_mul(1u64 << (2 * level));
+                    if worst <= CELL_RESERVE_LIMIT {
+                        let n = worst as usize;
+                        let on_faces = 3 * (kept.len() << level) + 16;
+                        let room = try_room(&mut out.tris, n)
+                            .and_then(|_| try_room(&mut out.levels, n))
+                            .and_then(|_| try_room(&mut out.verts, n + 16))
+                            .and_then(|_| {
+                                map.try_reserve(on_faces).map_err(|_| {
+                                    (map.len() + on_faces).max(2 * map.capacity())
+                                        * size_of::<([u64; 3], u32)>()
+                                })
+                            });
+                        if let Err(bytes) = room {
+                            out.scratch_failed = bytes;
+                            break 'layers;
+                        }
+                    }
+                }
                 // Whether refinement merged two of the cell's points (split
                 // points that weld onto another point, which straight
                 // gradient lines meeting on S_K can cause). Each new point
@@ -1515,6 +1549,18 @@ struct CellAt<'a> {
     t_start: usize,
     v_start: usize,
     above_before: u64,
+}
+
+/// Reserves room for `n` more items in `v`; on failure, the bytes of the
+/// buffer that could not be had (at least double the old one, as `Vec`
+/// grows).
+fn try_room<T>(v: &mut Vec<T>, n: usize) -> Result<(), usize> {
+    v.try_reserve(n).map_err(|_| {
+        v.len()
+            .saturating_add(n)
+            .max(v.capacity().saturating_mul(2))
+            .saturating_mul(size_of::<T>())
+    })
 }
 
 /// Removes a cell's patch from the slab: its triangles (and their levels)

@@ -396,7 +396,11 @@ fn c_api_names_points_beyond_the_index_range() {
     );
     // Long numbers in scientific notation: the message fits the 256-byte
     // buffer the documentation suggests (it was over 1000 bytes).
-    assert!(msg.len() < 256 && msg.contains("1e300"), "{} bytes: {msg}", msg.len());
+    assert!(
+        msg.len() < 256 && msg.contains("1e300"),
+        "{} bytes: {msg}",
+        msg.len()
+    );
     let mut nan = far;
     nan[6] = f64::NAN;
     let (s, msg) = call(&cv, &nan);
