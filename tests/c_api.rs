@@ -571,6 +571,13 @@ fn errors_map_to_statuses_with_messages() {
         Some(PmcStatus::NullArgument)
     );
     assert_eq!(last_error(), "volume->data is NULL");
+    // NULL data is named first, whatever else is wrong.
+    cv.scalar_type = 77;
+    assert_eq!(
+        c_extract(&cv, 2.0, ptr::null()).err(),
+        Some(PmcStatus::NullArgument)
+    );
+    assert_eq!(last_error(), "volume->data is NULL");
     let status = unsafe { CStr::from_ptr(pmc_status_string(PmcStatus::Aborted as u32)) };
     assert_eq!(status.to_str().unwrap(), "aborted by the progress callback");
 }

@@ -60,11 +60,12 @@ pub(crate) unsafe fn core_volume<'a>(
     v: &pmc_volume,
     index_offset: [i64; 3],
 ) -> Result<Volume<'a>, Failure> {
-    let ty = PmcScalarType::from_raw(v.scalar_type)
-        .ok_or_else(|| Failure::invalid(format!("unknown scalar type {}", v.scalar_type)))?;
+    // A NULL pointer first, whatever else is wrong, as documented.
     if v.data.is_null() {
         return Err(Failure::null("volume->data"));
     }
+    let ty = PmcScalarType::from_raw(v.scalar_type)
+        .ok_or_else(|| Failure::invalid(format!("unknown scalar type {}", v.scalar_type)))?;
     // SAFETY: forwarded contract.
     let samples = unsafe { samples(ty, v.data, v.len)? };
     let volume = Volume::new(samples, v.dims)
