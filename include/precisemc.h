@@ -227,7 +227,9 @@ enum pmc_normals
     PMC_NORMALS_NONE = 0,
     /**
      * The exact gradient of the trilinear interpolant at the point,
-     * negated and normalised, in world space.
+     * negated and normalised, in world space (at a point on a sample whose
+     * cell is flat there, as in a label volume contoured at a label's
+     * value, the central differences instead).
      */
     PMC_NORMALS_GRADIENT = 1,
     /**
@@ -740,7 +742,8 @@ int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
 /**
  * Unit normals per point, pointing towards lower sample values:
  * `3 * pmc_mesh_point_count` floats; (0, 0, 0) where the gradient
- * vanishes or is not finite. `NULL` when normals were not requested
+ * vanishes (in gradient mode, the central differences too) or is not
+ * finite. `NULL` when normals were not requested
  * (`PMC_NORMALS_NONE`) and for a `NULL` or empty mesh.
  *
  * # Safety

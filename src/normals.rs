@@ -85,51 +85,64 @@ pub(crate) fn compute_normals<T: Scalar>(
     let dims = g.dims;
     let off = g.index_offset;
     let spacing = volume.spacing;
+    // Central differences at the grid points, interpolated trilinearly at
+    // the point (VTK's way).
+    let grad = |i: usize, j: usize, k: usize| -> DVec3 {
+        let idx = [i, j, k];
+        let mut out = DVec3::ZERO;
+        for a in 0..3 {
+            let mut lo = idx;
+            let mut hi = idx;
+            let mut h = 2.0;
+            if idx[a] == 0 {
+                hi[a] += 1;
+                h = 1.0;
+            } else if idx[a] == dims[a] - 1 {
+                lo[a] -= 1;
+                h = 1.0;
+            } else {
+                lo[a] -= 1;
+                hi[a] += 1;
+            }
+            out[a] = (g.get(hi[0], hi[1], hi[2]) - g.get(lo[0], lo[1], lo[2])) / h;
+        }
+        out
+    };
+    let central = |c: [usize; 3], l: DVec3| {
+        let mut n = DVec3::ZERO;
+        for cc in crate::tables::cube::CORNERS.iter() {
+            let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
+                * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
+                * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
+            n += grad(
+                c[0] + cc[0] as usize,
+                c[1] + cc[1] as usize,
+                c[2] + cc[2] as usize,
+            ) * w;
+        }
+        n
+    };
     match mode {
         NormalMode::None => {}
         NormalMode::Gradient => exec.extend(&mut normals, index_points, |p| {
             let (c, l) = locate(DVec3::from_array(*p), dims, off);
             let v = filter.corners(c);
-            finish(trilinear_gradient(&v, l), spacing)
-        })?,
-        NormalMode::CentralDifference => {
-            let grad = |i: usize, j: usize, k: usize| -> DVec3 {
-                let idx = [i, j, k];
-                let mut out = DVec3::ZERO;
-                for a in 0..3 {
-                    let mut lo = idx;
-                    let mut hi = idx;
-                    let mut h = 2.0;
-                    if idx[a] == 0 {
-                        hi[a] += 1;
-                        h = 1.0;
-                    } else if idx[a] == dims[a] - 1 {
-                        lo[a] -= 1;
-                        h = 1.0;
-                    } else {
-                        lo[a] -= 1;
-                        hi[a] += 1;
-                    }
-                    out[a] = (g.get(hi[0], hi[1], hi[2]) - g.get(lo[0], lo[1], lo[2])) / h;
-                }
-                out
-            };
-            exec.extend(&mut normals, index_points, |p| {
-                let (c, l) = locate(DVec3::from_array(*p), dims, off);
-                let mut n = DVec3::ZERO;
-                for cc in crate::tables::cube::CORNERS.iter() {
-                    let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
-                        * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
-                        * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
-                    n += grad(
-                        c[0] + cc[0] as usize,
-                        c[1] + cc[1] as usize,
-                        c[2] + cc[2] as usize,
-                    ) * w;
-                }
+            let n = trilinear_gradient(&v, l);
+            // A point on a sample takes the gradient of the cell on its
+            // upper side, which is flat where that side's samples all
+            // equal it (a label volume contoured at a label's value):
+            // the central differences there instead, never a zero normal
+            // where the data has a slope.
+            if n == DVec3::ZERO {
+                finish(central(c, l), spacing)
+            } else {
                 finish(n, spacing)
-            })?
-        }
+            }
+        })?,
+        NormalMode::CentralDifference => exec.extend(&mut normals, index_points, |p| {
+            let (c, l) = locate(DVec3::from_array(*p), dims, off);
+            finish(central(c, l), spacing)
+        })?,
     }
     Ok(normals)
 }

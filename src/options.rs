@@ -41,7 +41,10 @@ pub enum NormalMode {
     #[default]
     None,
     /// The exact gradient of the trilinear interpolant at the point
-    /// (negated and normalised, in world space).
+    /// (negated and normalised, in world space). A point on a sample takes
+    /// the cell on its upper side; where that cell's gradient is zero there
+    /// (a label volume contoured at a label's value), the central
+    /// differences of [`NormalMode::CentralDifference`] instead.
     Gradient,
     /// Like VTK: central-difference gradients at the grid points (one-sided
     /// at the border), interpolated trilinearly to the point, negated and

@@ -521,6 +521,49 @@ fn integer_spheres_at_integer_isovalues() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Gradient normals are unit vectors on label data contoured at a label's
+/// value: a point on a sample whose upper cell is flat (all its samples
+/// equal the point's) took that cell's zero gradient (a quarter of a
+/// binary sphere's points had (0, 0, 0) at isovalue 1).
+#[test]
+fn gradient_normals_on_label_volumes_are_unit_vectors() {
+    use precisemc::NormalMode;
+    for (seed, top) in [(1u64, 1i16), (2, 1), (3, 3), (4, 5)] {
+        let mut rng = Rng::new(9000 + seed);
+        let dims = [18 + rng.below(4) as usize, 17 + rng.below(4) as usize, 16];
+        let c = dims.map(|n| n as f64 / 2.0 + rng.f64() - 0.5);
+        let r = 6.0 + 1.5 * rng.f64();
+        // Nested shells labelled 1..=top inside, 0 outside.
+        let v: Vec<i16> = grid_fn(dims, |x, y, z| {
+            let d = ((x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2)).sqrt();
+            (r - d + 1.0).floor().clamp(0.0, top as f64)
+        })
+        .into_iter()
+        .map(|x| x as i16)
+        .collect();
+        let vol = Volume::new(&v, dims_u64(dims));
+        for label in 1..=top {
+            for eps in [0.0, 0.01] {
+                let opts = Options {
+                    epsilon: eps,
+                    normals: NormalMode::Gradient,
+                    ..Options::default()
+                };
+                let mesh = extract(&vol, label as f64, &opts).unwrap();
+                assert!(!mesh.triangles.is_empty(), "seed {seed} label {label}");
+                assert_eq!(mesh.normals.len(), mesh.points.len());
+                for (n, p) in mesh.normals.iter().zip(&mesh.index_points) {
+                    let len = n.iter().map(|c| (*c as f64).powi(2)).sum::<f64>().sqrt();
+                    assert!(
+                        (len - 1.0).abs() < 1e-5,
+                        "seed {seed} label {label} eps {eps}: normal {n:?} at {p:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// Random integers in `0..=top` on `dims`, with a border of 0.
 fn random_integers(rng: &mut Rng, dims: [usize; 3], top: u64) -> Vec<i16> {
     let mut v: Vec<i16> = (0..dims[0] * dims[1] * dims[2])

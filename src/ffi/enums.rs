@@ -139,7 +139,9 @@ pub enum PmcNormals {
     /// No normals: `pmc_mesh_normals` returns `NULL` (the default).
     None = 0,
     /// The exact gradient of the trilinear interpolant at the point,
-    /// negated and normalised, in world space.
+    /// negated and normalised, in world space (at a point on a sample whose
+    /// cell is flat there, as in a label volume contoured at a label's
+    /// value, the central differences instead).
     Gradient = 1,
     /// As VTK: central-difference gradients at the grid points, interpolated
     /// trilinearly, negated and normalised.
