@@ -426,7 +426,9 @@ typedef struct pmc_stats {
      */
     uint64_t samples_evaluated;
     /**
-     * Sample points that were inserted as split points.
+     * Split points inserted, each once per cell that inserts it (a point
+     * on a cell face, which both cells sharing the face insert and weld,
+     * counts in both).
      */
     uint64_t split_points;
     /**

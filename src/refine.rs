@@ -959,7 +959,6 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         if nsplit == 0 && centre.is_none() {
             return self.leaf(t, emit);
         }
-        self.counters.splits += nsplit as u64 + centre.is_some() as u64;
         // Ids and positions of the triangle's points by slot: its
         // corners, its edges' split points, its centre.
         let mut ids = [
@@ -984,8 +983,11 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             if splits(e) {
                 // A split edge was tested, so it has an entry.
                 if let Some(entry) = self.cache.get_mut(keys[e]) {
+                    // The split point of an edge shared by two triangles
+                    // of the cell is made (and counted) once.
                     if entry.id == u32::MAX {
                         entry.id = vertex(mid_p[e]);
+                        self.counters.splits += 1;
                     }
                     ids[M0 + e] = entry.id;
                 }
@@ -994,6 +996,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         if let Some(c) = centre {
             ids[C] = vertex(c);
             pos[C] = c;
+            self.counters.splits += 1;
         }
         let mut children = [[C as u8; 3]; 6];
         let mut n = 0;

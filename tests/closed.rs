@@ -85,6 +85,44 @@ fn closed_fields_give_closed_oriented_manifolds() {
             if bad {
                 failures.push(format!("{name} / {cfg}: volume {vol_sign}, {c:?}"));
             }
+            // Each point refinement adds is a split point, counted once
+            // per cell that inserts it: once inside a cell, twice on a
+            // face that two cells share (sub-cell meshes make points of
+            // their own). Points of Marching Cubes lie on grid edges.
+            let s = &mesh.stats;
+            if opts.epsilon > 0.0 && s.cells_on_subcells == 0 {
+                let on_grid = |p: &[f64; 3]| p.iter().filter(|c| c.fract() == 0.0).count();
+                let plain = Options {
+                    epsilon: 0.0,
+                    max_level: 0,
+                    ..opts.clone()
+                };
+                let mc = extract(&vol, 0.0, &plain).unwrap();
+                let count = |m: &precisemc::Mesh, n: usize| {
+                    m.index_points.iter().filter(|p| on_grid(p) == n).count()
+                };
+                // (Trilinear Marching Cubes has points inside some cells.)
+                let face = count(&mesh, 1) - count(&mc, 1);
+                let inner = count(&mesh, 0) - count(&mc, 0);
+                // Within a few: a split point can weld onto another, or
+                // replace a fan centre of Marching Cubes (a tenth of the
+                // inner points is far below the double count of interior
+                // edges' points this caught).
+                let (lo, hi) = (
+                    (inner + face) as u64,
+                    (inner + inner / 10 + 2 * face) as u64,
+                );
+                if mesh.points.len() != mc.points.len() + face + inner
+                    || !(lo..=hi).contains(&s.split_points)
+                    || s.split_points > s.samples_evaluated
+                {
+                    failures.push(format!(
+                        "{name} / {cfg}: {inner} points added inside cells and {face} on \
+                         faces, {} split points, {} samples",
+                        s.split_points, s.samples_evaluated
+                    ));
+                }
+            }
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));

@@ -473,7 +473,8 @@ public:
    *   triangles.
    * - MaxLevelReached / MeanLevel: refinement level of output triangles.
    * - NumberOfSamplesEvaluated / NumberOfSplitPoints: sample points tested
-   *   and inserted.
+   *   and inserted, per cell (a point on a face that two cells share counts
+   *   in both).
    * - NumberOfProjectionFailures: sample points for which no point of the
    *   isosurface was found along the gradient line within the cell, or
    *   only one farther away than the edge (triangle) sampled.

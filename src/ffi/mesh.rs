@@ -95,7 +95,9 @@ pub struct pmc_stats {
     pub skipped_nonfinite_cells: u64,
     /// Sample points tested against the ideal surface.
     pub samples_evaluated: u64,
-    /// Sample points that were inserted as split points.
+    /// Split points inserted, each once per cell that inserts it (a point
+    /// on a cell face, which both cells sharing the face insert and weld,
+    /// counts in both).
     pub split_points: u64,
     /// Sample points whose gradient line left the cell without meeting the
     /// ideal surface, or met it farther away than the edge (triangle)
