@@ -530,3 +530,35 @@ fn interior_patch_vertex_is_on_the_surface() {
         assert!(v.abs() <= 1e-9, "vertex {p:?} has F = {v}");
     }
 }
+
+/// The public cell functions take any corner values: a NaN or infinite
+/// corner gets the table's triangles (or none from the trilinear test
+/// itself), never a panic (the tube's stitching ran past its table on
+/// NaN costs).
+#[test]
+fn cells_with_non_finite_corners_do_not_panic() {
+    use precisemc::mc::{cell_triangles, trilinear, Patch};
+    let mut rng = Rng::new(77);
+    let bad = [f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
+    for n in 0..60_000 {
+        let mut f = [0.0; 8];
+        for v in f.iter_mut() {
+            *v = rng.f64() * 2.0 - 1.0;
+        }
+        f[n % 8] = bad[n % 3];
+        if n % 5 == 0 {
+            // A subnormal at another corner.
+            f[(n % 8 + 1 + (n / 8) % 7) % 8] = 1e-310;
+        }
+        let mut patch = Patch::default();
+        let tested = cell_triangles(&f, Topology::Trilinear, &mut patch);
+        assert!(!tested, "{f:?}");
+        assert_eq!(
+            patch.tris,
+            precisemc::mc::classic::case_triangles(case_index(&f))
+        );
+        let (mut tris, mut extra) = (Vec::new(), Vec::new());
+        trilinear::triangles(&f, true, &mut tris, &mut extra);
+        assert!(tris.is_empty() && extra.is_empty(), "{f:?}");
+    }
+}

@@ -48,7 +48,8 @@ pub fn case_index(f: &[f64; 8]) -> u8 {
 }
 
 /// Appends the triangles of one cell to `out`; returns whether the
-/// trilinear topology test ran (the cell was ambiguous).
+/// trilinear topology test ran (the cell was ambiguous, with finite
+/// corners; a NaN or infinite corner gets the table's triangles).
 #[inline]
 pub fn cell_triangles(f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool {
     cell_triangles_of_case(case_index(f), f, topology, out)
@@ -63,7 +64,7 @@ pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &
     if case == 0 || case == 255 {
         return false;
     }
-    if topology_decides(case, topology) {
+    if topology_decides(case, f, topology) {
         trilinear::triangles(f, out.pinch_fans, &mut out.tris, &mut out.extra);
         true
     } else {
@@ -85,7 +86,7 @@ pub fn cell_triangles_borrowed<'a>(
 ) -> (&'a [[u8; 3]], &'a [[f64; 3]], bool) {
     debug_assert_eq!(case, case_index(f));
     out.clear();
-    if topology_decides(case, topology) {
+    if topology_decides(case, f, topology) {
         trilinear::triangles(f, out.pinch_fans, &mut out.tris, &mut out.extra);
         (&out.tris, &out.extra, true)
     } else {
@@ -94,8 +95,12 @@ pub fn cell_triangles_borrowed<'a>(
 }
 
 /// Whether the cell's triangles come from the trilinear topology test
-/// rather than the fixed table.
+/// rather than the fixed table. Not for a cell with a NaN or infinite
+/// corner (the extraction skips those; the test's arithmetic would have
+/// no meaning there): the table's triangles then.
 #[inline(always)]
-fn topology_decides(case: u8, topology: Topology) -> bool {
-    topology == Topology::Trilinear && NEEDS_TOPOLOGY_TEST[case as usize]
+fn topology_decides(case: u8, f: &[f64; 8], topology: Topology) -> bool {
+    topology == Topology::Trilinear
+        && NEEDS_TOPOLOGY_TEST[case as usize]
+        && f.iter().all(|v| v.is_finite())
 }

@@ -454,8 +454,12 @@ fn quadratic_roots(a: f64, b: f64, c: f64) -> ([f64; 2], usize) {
 /// `extra[k]` (local coordinates), added where a fan would lay a triangle
 /// flat in a cell face. With `pinch`, such a fan may be centred at a pinch
 /// point of `S_K` instead (see `fan_centre`; for refinement, which
-/// cannot mend a fan laid across the solid).
+/// cannot mend a fan laid across the solid). Nothing for a cell with a NaN
+/// or infinite corner: the trilinear function means nothing there.
 pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
+    if !f.iter().all(|v| v.is_finite()) {
+        return;
+    }
     let decisions = face_decisions(f);
     let loops = loops(f, &decisions);
     match loops.len() {
