@@ -110,11 +110,6 @@ done
 run_test build_test_cxx build "$OUT/bin/test_cxx" g++ "${CXXWARN[@]}" -O1 -g "${INC[@]}" \
     "$ROOT/tests/c/test_cxx.cpp" "${SHARED[@]}"
 [[ -x $OUT/bin/test_cxx ]] && run_test run_test_cxx "$OUT/bin/test_cxx"
-# Under an address-space limit: only here (sanitizers and valgrind reserve
-# address space of their own).
-run_test build_test_memory_limit build "$OUT/bin/test_memory_limit" gcc "${CWARN[@]}" -O1 -g \
-    "${INC[@]}" "$ROOT/tests/c/test_memory_limit.c" "${SHARED[@]}"
-[[ -x $OUT/bin/test_memory_limit ]] && run_test run_test_memory_limit "$OUT/bin/test_memory_limit"
 
 # --- 2. AddressSanitizer + UndefinedBehaviorSanitizer, static library -----------
 # LeakSanitizer is on: the library frees everything it allocates (thread
