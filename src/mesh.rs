@@ -1,7 +1,12 @@
 //! The output: a welded triangle mesh with per-triangle levels and statistics.
 
 /// Counters and timings of one extraction.
-#[derive(Debug, Clone, Default, PartialEq)]
+///
+/// Equality (`==`) compares the counters and levels and ignores the wall
+/// times (`time_*`), which differ from run to run: two extractions of the
+/// same input with the same options compare equal, whatever the thread
+/// count or executor.
+#[derive(Debug, Clone, Default)]
 pub struct Stats {
     /// Cells in the volume.
     pub cells: u64,
@@ -74,10 +79,63 @@ pub struct Stats {
     pub time_total: f64,
 }
 
+impl PartialEq for Stats {
+    fn eq(&self, o: &Self) -> bool {
+        // Every field but the times, spelled out so that a new counter
+        // cannot be left out unnoticed (the destructuring fails to compile).
+        let Stats {
+            cells,
+            mc_triangles,
+            output_triangles,
+            output_points,
+            ambiguous_cells,
+            skipped_nonfinite_cells,
+            max_level,
+            mean_level,
+            samples_evaluated,
+            split_points,
+            projection_failures,
+            faces_above_epsilon,
+            cells_refined_on_faces_only,
+            recut_polygons,
+            cells_on_subcells,
+            budget_reached,
+            effective_max_level,
+            time_mc: _,
+            time_refine: _,
+            time_assemble: _,
+            time_normals: _,
+            time_total: _,
+        } = self;
+        *cells == o.cells
+            && *mc_triangles == o.mc_triangles
+            && *output_triangles == o.output_triangles
+            && *output_points == o.output_points
+            && *ambiguous_cells == o.ambiguous_cells
+            && *skipped_nonfinite_cells == o.skipped_nonfinite_cells
+            && *max_level == o.max_level
+            && mean_level.to_bits() == o.mean_level.to_bits()
+            && *samples_evaluated == o.samples_evaluated
+            && *split_points == o.split_points
+            && *projection_failures == o.projection_failures
+            && *faces_above_epsilon == o.faces_above_epsilon
+            && *cells_refined_on_faces_only == o.cells_refined_on_faces_only
+            && *recut_polygons == o.recut_polygons
+            && *cells_on_subcells == o.cells_on_subcells
+            && *budget_reached == o.budget_reached
+            && *effective_max_level == o.effective_max_level
+    }
+}
+
 /// A welded, consistently oriented triangle mesh.
 ///
 /// Normals of triangles `(p1 - p0) x (p2 - p0)` point towards lower values,
 /// as in `vtkMarchingCubes`.
+///
+/// Equality (`==`) compares the arrays by value and the statistics without
+/// their wall times (see [`Stats`]): the output is deterministic, so two
+/// extractions of the same input with the same options compare equal
+/// whatever the thread count.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
     /// Point positions in world coordinates.

@@ -109,9 +109,18 @@ fn identical_for_any_thread_count() {
                 };
                 let one = run(1);
                 for t in [2, 4] {
+                    let other = run(t);
                     assert!(
-                        same_mesh(&one, &run(t)),
+                        same_mesh(&one, &other),
                         "{name} {cfg} {normals:?}: {t} threads differ from 1"
+                    );
+                    // The public equality agrees: it ignores only the
+                    // statistics' wall times, so the counters match too.
+                    assert!(
+                        one == other,
+                        "{name} {cfg} {normals:?}: {t} threads: {:?} != {:?}",
+                        one.stats,
+                        other.stats
                     );
                 }
                 let o = Options {
@@ -140,8 +149,9 @@ fn identical_for_any_thread_count() {
                         concurrency,
                         seed: 17 * threads as u64 + (concurrency % 1000) as u64,
                     };
+                    let other = lent(&ex);
                     assert!(
-                        same_mesh(&one, &lent(&ex)),
+                        same_mesh(&one, &other) && one == other,
                         "{name} {cfg} {normals:?}: executor of {threads} threads \
                          claiming {concurrency} differs"
                     );
@@ -266,7 +276,9 @@ fn repeated_runs_are_identical() {
     let opts = refine_opts(precisemc::Topology::Trilinear, Rule::A2, 0.003, 5);
     let a = extract(&vol, 0.0, &opts).unwrap();
     for _ in 0..3 {
-        assert!(same_mesh(&a, &extract(&vol, 0.0, &opts).unwrap()));
+        let b = extract(&vol, 0.0, &opts).unwrap();
+        assert!(same_mesh(&a, &b));
+        assert_eq!(a, b);
     }
 }
 
