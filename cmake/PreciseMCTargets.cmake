@@ -1,13 +1,14 @@
 # Defines the imported targets of PreciseMC. Used by the top-level
 # CMakeLists.txt (build tree) and installed next to PreciseMCConfig.cmake.
 #
-#   precisemc_define_targets(<prefix> <library dir> <include dir> <native libs> [GLOBAL])
+#   precisemc_define_targets(<prefix> <library dir> <include dir> <native libs>
+#                            <soname> [GLOBAL])
 #
 # creates <prefix>precisemc (shared library) and <prefix>precisemc_static
 # (static library, linking the native libraries Rust's standard library
-# needs).
+# needs). <soname> is the shared library's SONAME ("" when it has none).
 
-function(precisemc_define_targets prefix libdir incdir native_libs)
+function(precisemc_define_targets prefix libdir incdir native_libs soname)
   set(_global ${ARGN})
   add_library(${prefix}precisemc SHARED IMPORTED ${_global})
   add_library(${prefix}precisemc_static STATIC IMPORTED ${_global})
@@ -19,11 +20,15 @@ function(precisemc_define_targets prefix libdir incdir native_libs)
       IMPORTED_IMPLIB "${libdir}/precisemc.dll.lib")
   else()
     set(_static "${libdir}/libprecisemc.a")
-    # Cargo's cdylib has no SONAME: link by name so that the executable
-    # records "libprecisemc.so", not the path it was linked from.
-    set_target_properties(${prefix}precisemc PROPERTIES
-      IMPORTED_LOCATION "${_shared}"
-      IMPORTED_NO_SONAME TRUE)
+    set_target_properties(${prefix}precisemc PROPERTIES IMPORTED_LOCATION "${_shared}")
+    if(soname)
+      # Programs record the SONAME, found at run time beside the library.
+      set_target_properties(${prefix}precisemc PROPERTIES IMPORTED_SONAME "${soname}")
+    else()
+      # A library without one: link by name so that the executable records
+      # "libprecisemc.so", not the path it was linked from.
+      set_target_properties(${prefix}precisemc PROPERTIES IMPORTED_NO_SONAME TRUE)
+    endif()
   endif()
   set_target_properties(${prefix}precisemc PROPERTIES
     INTERFACE_INCLUDE_DIRECTORIES "${incdir}")

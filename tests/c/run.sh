@@ -70,11 +70,19 @@ fi
 # --- the crate ----------------------------------------------------------------
 mkdir -p "$OUT/bin" "$LOGS"
 rm -f "$LOGS"/*.log
-log "cargo build --release --lib"
-(cd "$ROOT" && cargo build --release --lib >&2)
+# Built with the SONAME the CMake build gives it (libprecisemc.so.0.<minor>
+# before 1.0, as CMakeLists.txt says), so that the CMake package test
+# below shares this build instead of linking the library again; programs
+# linked against it find the SONAME as a link beside it.
+version=$(sed -n 's/^#define PMC_VERSION_STRING "\(.*\)"/\1/p' "$ROOT/include/precisemc.h")
+IFS=. read -r vmajor vminor _ <<<"$version"
+if ((vmajor == 0)); then SONAME=libprecisemc.so.0.$vminor; else SONAME=libprecisemc.so.$vmajor; fi
+log "cargo build --release --lib (SONAME $SONAME)"
+(cd "$ROOT" && PRECISEMC_SONAME=$SONAME cargo build --release --lib >&2)
 for f in libprecisemc.a libprecisemc.so; do
     [[ -f $LIB_DIR/$f ]] || { log "missing $LIB_DIR/$f"; exit 1; }
 done
+ln -sfn libprecisemc.so "$LIB_DIR/$SONAME"
 
 CWARN=(-std=c99 -Wall -Wextra -Wpedantic -Werror)
 CXXWARN=(-std=c++11 -Wall -Wextra -Wpedantic -Werror)
@@ -152,16 +160,36 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
     run_test cmake_build cmake --build "$CB"
     run_test cmake_install cmake --install "$CB" --prefix "$PREFIX"
 
+    # The shared library has its SONAME, and programs record it (not the
+    # file name or path they were linked against) and find it at run time.
+    needs_soname() { # needs_soname EXE
+        local needed
+        needed=$(readelf -d "$1" | sed -n 's/.*(NEEDED).*\[\(libprecisemc[^]]*\)\].*/\1/p')
+        [[ $needed == "$SONAME" ]] || { log "$1 needs '$needed', not $SONAME"; return 1; }
+        ldd "$1" | grep -q "$SONAME => /" || { log "$1: $SONAME not found"; return 1; }
+    }
+    soname_of() { readelf -d "$1" | sed -n 's/.*(SONAME).*\[\(.*\)\].*/\1/p'; }
+    installed_library() {
+        local lib=$PREFIX/lib
+        # The real file, the SONAME link to it, and the link for -lprecisemc.
+        [[ -f $lib/libprecisemc.so.$version && ! -L $lib/libprecisemc.so.$version ]] &&
+            [[ $(readlink "$lib/$SONAME") == "libprecisemc.so.$version" ]] &&
+            [[ $(readlink "$lib/libprecisemc.so") == "$SONAME" ]] &&
+            [[ $(soname_of "$lib/libprecisemc.so.$version") == "$SONAME" ]] &&
+            [[ $(soname_of "$LIB_DIR/libprecisemc.so") == "$SONAME" ]]
+    }
+    run_test cmake_installed_library installed_library
+
     consumer() { # consumer NAME CMAKE_ARGS...
         local dir=$OUT/consumer-$1
         shift
         cmake -S "$ROOT/tests/cmake_consumer" -B "$dir" "$@" &&
             cmake --build "$dir" &&
             (cd "$dir" && ctest --output-on-failure) &&
+            needs_soname "$dir/consumer_shared" &&
             # The static one must not need libprecisemc.so.
             ! ldd "$dir/consumer_static" | grep -q libprecisemc
     }
-    version=$(sed -n 's/^#define PMC_VERSION_STRING "\(.*\)"/\1/p' "$ROOT/include/precisemc.h")
     run_test cmake_consumer_install consumer install -DCMAKE_PREFIX_PATH="$PREFIX" \
         -DPMC_EXPECTED_VERSION="$version"
     run_test cmake_consumer_build_tree consumer build-tree -DPreciseMC_DIR="$CB" \
@@ -178,6 +206,7 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             # shellcheck disable=SC2086
             gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" $libs \
                 -Wl,-rpath,"$libdir" -o "$exe"
+            needs_soname "$exe" || return 1
         else
             # precisemc-static.pc names the archive itself.
             libs=$("${pc[@]}" --libs precisemc-static)
