@@ -59,6 +59,9 @@ extern "C"
 #include "precisemc.h"
 }
 
+// The clamp of SetNumberOfThreads (the header does not include the C API).
+static_assert(PMC_MAX_THREADS == 4096, "update vtkPreciseMarchingCubes::SetNumberOfThreads");
+
 #ifdef __linux__
 #include <sys/mman.h>
 #endif
@@ -671,17 +674,20 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
     }
-    // A distributed piece's own cells: those its ghost array does not
-    // mark as duplicates; without one, the piece asked for, unless the
-    // input is neither that nor the whole volume (split by an upstream
-    // filter its own way, as Resample To Image does: then all its cells).
+    // A distributed piece's own cells: the piece asked for when the input
+    // is the whole volume (every piece then holds all of it, ghost array
+    // or not: an image with blanked cells, or given with SetInputData);
+    // else those its ghost array does not mark as duplicates; without one,
+    // the piece asked for, unless the input is not that either (split by
+    // an upstream filter its own way, as Resample To Image does: then all
+    // its cells).
     int piece[6];
     std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
     const bool ownSplit = this->ContourPieces > 1 &&
+      !std::equal(dataExtent, dataExtent + 6, whole) &&
       (input->GetCellGhostArray() != nullptr ||
-        (!std::equal(dataExtent, dataExtent + 6, whole) &&
-          !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
-            this->ContourSplitExtent, this->ContourSplitMode)));
+        !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
+          this->ContourSplitExtent, this->ContourSplitMode));
     if (ownSplit && !OwnCells(input, dataExtent, piece))
     {
       vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");
@@ -815,6 +821,37 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // A mirroring transform would turn the triangles inside out: keep the
     // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
     flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
+    // Points are mapped below as origin + column 0 * i + column 1 * j +
+    // column 2 * k: each partial sum is linear in the indices, so when it
+    // is finite at the corners of the extent it is finite everywhere in
+    // it. (The library refuses an overflowing axis-aligned grid itself.)
+    for (int corner = 0; corner < 8; ++corner)
+    {
+      const double ijk[3] = { static_cast<double>(dataExtent[corner & 1 ? 1 : 0]),
+        static_cast<double>(dataExtent[corner & 2 ? 3 : 2]),
+        static_cast<double>(dataExtent[corner & 4 ? 5 : 4]) };
+      for (int r = 0; r < 3; ++r)
+      {
+        double x = origin[r];
+        bool finite = true;
+        for (int c = 0; c < 3; ++c)
+        {
+          x += indexToWorld[r][c] * ijk[c];
+          finite = finite && std::isfinite(x);
+        }
+        if (!finite)
+        {
+          vtkErrorMacro(<< "Invalid image geometry: the world coordinates of the extent ("
+                        << dataExtent[0] << ".." << dataExtent[1] << ", " << dataExtent[2] << ".."
+                        << dataExtent[3] << ", " << dataExtent[4] << ".." << dataExtent[5]
+                        << ") are not finite (they overflow) with origin (" << origin[0] << ", " << origin[1] << ", "
+                        << origin[2] << "), spacing (" << spacing[0] << ", " << spacing[1] << ", "
+                        << spacing[2] << ") and the direction matrix");
+          output->Initialize();
+          return 1;
+        }
+      }
+    }
   }
 
   // The first sample read (of the contoured extent, or of its ghost layer),

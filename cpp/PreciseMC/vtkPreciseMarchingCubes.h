@@ -432,9 +432,10 @@ public:
    * uses all cores. Unless it is 1, a large output (65 536 points or more)
    * is also copied into the vtkPolyData through vtkSMPTools, with the
    * backend and thread count the application set for it. The output does
-   * not depend on it.
+   * not depend on it. At most 4096 (the library's PMC_MAX_THREADS): a
+   * larger value is clamped to it.
    */
-  vtkSetClampMacro(NumberOfThreads, int, 0, VTK_INT_MAX);
+  vtkSetClampMacro(NumberOfThreads, int, 0, 4096);
   vtkGetMacro(NumberOfThreads, int);
   ///@}
 

@@ -412,6 +412,45 @@ def test_singular_direction_is_refused_before_any_work():
     assert f.GetNumberOfMCTriangles() == 0 and f.GetNumberOfRefinedTriangles() == 0
 
 
+@pytest.mark.parametrize("direction, spacing", [
+    ((1, 0, 0, 0, 1, 0, 0, 0, 1), (1e307, 1e307, 1e307)),
+    ((0, 1, 0, 1, 0, 0, 0, 0, 1), (1e307, 1e307, 1e307)),
+    ((1, 0, 0, 0, 1, 0, 0, 0, 1), (1e307, 1e307, -1e307)),
+])
+def test_world_coordinates_that_overflow_are_refused(direction, spacing):
+    # Axis-aligned, the library refuses the grid; with a direction matrix
+    # or a negative spacing the filter maps the points itself, and used to
+    # output points at infinity without a word.
+    image = wavelet(8)  # extent -8..8
+    image.SetOrigin(1.75e308, 0.0, 0.0)
+    image.SetSpacing(*spacing)
+    image.SetDirectionMatrix(*direction)
+    f = refused(image, 150.0, "not finite")
+    assert f.GetNumberOfMCTriangles() == 0
+    # The same geometry one step back from overflowing is contoured, finite.
+    image.SetOrigin(1e308, 0.0, 0.0)
+    image.SetSpacing(*(s / 1e3 for s in spacing))
+    g = vtkPreciseMarchingCubes()
+    g.SetInputData(image)
+    g.SetValue(0, 150.0)
+    g.SetOutputPointsPrecision(1)
+    g.Update()
+    assert g.GetOutput().GetNumberOfPolys() > 100
+    assert np.isfinite(points(g.GetOutput())).all()
+
+
+def test_thread_count_is_clamped_to_the_library_limit():
+    f = vtkPreciseMarchingCubes()
+    f.SetNumberOfThreads(100000)
+    assert f.GetNumberOfThreads() == 4096
+    f.SetInputData(wavelet(8))
+    f.SetValue(0, 150.0)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert not errors.errors, errors.errors
+    assert f.GetOutput().GetNumberOfPolys() > 100
+
+
 def test_max_triangles_on_a_piece_warns_of_cracks():
     # Each piece meets the cap on its own: one stopping at a lower level
     # than its neighbour does not meet it along the cut, which the filter
@@ -782,6 +821,54 @@ def test_pieces_equal_the_serial_surface(name):
         union = union[np.lexsort(union.T[::-1])]
         assert union.shape == serial.shape, f"{pieces} pieces"
         assert np.array_equal(union, serial), f"{pieces} pieces"
+
+
+@pytest.mark.parametrize("kind", ["ghost-array", "blanked"])
+def test_pieces_of_a_whole_volume_with_ghost_flags_cover_it_once(kind):
+    # An image that every piece receives whole (SetInputData) but that
+    # carries a cell ghost array: all zeros, or the HIDDENCELL flag of a
+    # blanked cell of a vtkUniformGrid. Nothing is a duplicate, so the
+    # pieces must still split the volume as asked (each used to contour
+    # all of it: the union held the surface once per piece).
+    from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+    from vtkmodules.vtkCommonDataModel import vtkUniformGrid
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+
+    n = 16
+    g = np.mgrid[0:n, 0:n, 0:n].astype(float)
+    values = np.sqrt(((g - (n - 1) / 2) ** 2).sum(0)).ravel()
+    image = vtkUniformGrid()
+    image.SetDimensions(n, n, n)
+    scalars = numpy_to_vtk(values, deep=1)
+    scalars.SetName("s")
+    image.GetPointData().SetScalars(scalars)
+    if kind == "ghost-array":
+        ghosts = vtkUnsignedCharArray()
+        ghosts.SetName("vtkGhostType")
+        ghosts.SetNumberOfTuples((n - 1) ** 3)
+        ghosts.Fill(0)
+        image.GetCellData().AddArray(ghosts)
+    else:
+        image.BlankCell(0)  # a corner cell, far from the surface
+    assert image.GetCellGhostArray() is not None
+    for eps in (0.0, 0.01):
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image)
+        f.SetValue(0, 5.0)
+        f.SetEpsilon(eps)
+        f.SetOutputPointsPrecision(1)
+        f.UpdatePiece(0, 1, 0)
+        serial = coordinate_triangles(f.GetOutput())
+        assert len(serial) > 500
+        for pieces in (2, 4):
+            parts = []
+            for piece in range(pieces):
+                f.UpdatePiece(piece, pieces, 0)
+                parts.append(coordinate_triangles(f.GetOutput()))
+                assert 0 < len(parts[-1]) < len(serial), f"{kind} eps {eps} {piece}/{pieces}"
+            union = np.concatenate(parts)
+            union = union[np.lexsort(union.T[::-1])]
+            assert np.array_equal(union, serial), f"{kind} eps {eps}, {pieces} pieces"
 
 
 # A cell of the EPI scan of the benchmark (values less the isovalue, x
