@@ -355,7 +355,8 @@ void RemoveFile(const std::string& path)
 
 PendingFiles::PendingFiles()
 {
-  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT })
+  // SIGPIPE too: output piped into a reader that quits early (| head).
+  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE })
   {
     struct sigaction action = {};
     action.sa_handler = RemovePendingAndDie;

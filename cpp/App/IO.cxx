@@ -30,12 +30,15 @@
 #include "vtkXMLPolyDataWriter.h"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdlib>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <vector>
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -145,7 +148,9 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
     double n = static_cast<double>(ext[2 * a + 1]) - ext[2 * a] + 1.0;
     if (n < 1.0)
     {
-      return;
+      Unreadable(path, "the header declares an extent with no samples along axis " +
+          std::to_string(a) + " (" + std::to_string(ext[2 * a]) + ".." +
+          std::to_string(ext[2 * a + 1]) + ")");
     }
     samples *= n;
     dims += (a ? "x" : "") + std::to_string(static_cast<long long>(n));
@@ -170,38 +175,77 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
   }
 }
 
-// NRRD files whose data follow the header in ASCII: VTK 9.1's reader
-// reads them as garbage without an error (a detached header works).
-void RefuseAttachedAsciiNrrd(const std::string& path)
+// What VTK 9.1's NRRD reader would misread or hang on, refused before it
+// sees the file: ASCII data after an attached header (read as garbage
+// without an error), an attached header that no blank line ends (its
+// reader then never returns), and sizes that are not positive integers
+// (an allocation of a negative size). Returns the header's sizes, which
+// the caller compares with what the reader made of them.
+std::vector<long long> CheckNrrdHeader(const std::string& path)
 {
   std::ifstream in(path, std::ios::binary);
   std::string line;
   bool ascii = false;
   bool detached = false;
-  for (int n = 0; n < 4096 && std::getline(in, line); ++n)
+  bool ended = false;
+  std::vector<long long> sizes;
+  // A header is a few hundred bytes: past a megabyte without a blank line
+  // it is data.
+  size_t read = 0;
+  const size_t headerLimit = size_t(1) << 20;
+  while (read < headerLimit && std::getline(in, line))
   {
+    read += line.size() + 1;
     if (!line.empty() && line.back() == '\r')
     {
       line.pop_back();
     }
     if (line.empty())
     {
-      break; // the end of the header
+      ended = true; // the end of the header
+      break;
     }
     std::string lower = line;
     std::transform(lower.begin(), lower.end(), lower.begin(),
       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    auto value = [&lower](size_t from) {
+      std::string v = lower.substr(from);
+      v.erase(0, v.find_first_not_of(" \t"));
+      v.erase(v.find_last_not_of(" \t") + 1);
+      return v;
+    };
     if (lower.compare(0, 9, "encoding:") == 0)
     {
-      std::string value = lower.substr(9);
-      value.erase(0, value.find_first_not_of(" \t"));
-      value.erase(value.find_last_not_of(" \t") + 1);
-      ascii = value == "ascii" || value == "text" || value == "txt";
+      std::string v = value(9);
+      ascii = v == "ascii" || v == "text" || v == "txt";
     }
     if (lower.compare(0, 10, "data file:") == 0 || lower.compare(0, 9, "datafile:") == 0)
     {
       detached = true;
     }
+    if (lower.compare(0, 6, "sizes:") == 0)
+    {
+      std::string v = value(6);
+      std::istringstream tokens(v);
+      std::string token;
+      sizes.clear();
+      while (tokens >> token)
+      {
+        char* rest = nullptr;
+        errno = 0;
+        long long n = std::strtoll(token.c_str(), &rest, 10);
+        if (token.empty() || *rest != '\0' || errno != 0 || n < 1)
+        {
+          Unreadable(path, "the header's sizes (" + v + ") are not all positive integers");
+        }
+        sizes.push_back(n);
+      }
+    }
+  }
+  if (!ended && !detached)
+  {
+    Unreadable(path, "no blank line ends the header before the data (VTK's NRRD reader would "
+                     "never stop reading it)");
   }
   if (ascii && !detached)
   {
@@ -209,6 +253,7 @@ void RefuseAttachedAsciiNrrd(const std::string& path)
                      "does not read correctly: use raw or gzip encoding, or a detached header "
                      "(.nhdr)");
   }
+  return sizes;
 }
 
 template <class In, class Out>
@@ -353,7 +398,6 @@ vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::stri
   }
   else if (ext == ".nrrd" || ext == ".nhdr")
   {
-    RefuseAttachedAsciiNrrd(path);
     reader = vtkSmartPointer<vtkNrrdReader>::New();
     format = "NRRD";
   }
@@ -371,11 +415,18 @@ vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::stri
   return reader;
 }
 
+bool IsNrrd(const std::string& path)
+{
+  const std::string ext = Extension(path);
+  return ext == ".nrrd" || ext == ".nhdr";
+}
+
 }
 
 vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
 {
   vtkSmartPointer<vtkAlgorithm> reader;
+  std::vector<long long> nrrdSizes;
   if (IsDirectory(path))
   {
     auto dicom = vtkSmartPointer<vtkDICOMImageReader>::New();
@@ -384,6 +435,10 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
   }
   else if (IsRegularFile(path))
   {
+    if (IsNrrd(path))
+    {
+      nrrdSizes = CheckNrrdHeader(path);
+    }
     reader = ReaderFor(path, Extension(path));
   }
   else
@@ -415,6 +470,20 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
   }
   int dims[3];
   image->GetDimensions(dims);
+  if (nrrdSizes.size() == 3 &&
+    (dims[0] != nrrdSizes[0] || dims[1] != nrrdSizes[1] || dims[2] != nrrdSizes[2]))
+  {
+    // VTK 9.1's reader takes a short first axis (9 samples or fewer, even
+    // with kinds "domain") or one without a space direction for vector
+    // components.
+    const int components = image->GetNumberOfScalarComponents();
+    Unreadable(path, "VTK's NRRD reader reads the sizes " + std::to_string(nrrdSizes[0]) + " " +
+        std::to_string(nrrdSizes[1]) + " " + std::to_string(nrrdSizes[2]) + " as " +
+        std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" + std::to_string(dims[2]) +
+        " samples of " + std::to_string(components) +
+        " components (it took the first axis for components): write the volume as .mha, .nii "
+        "or .vti");
+  }
   if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
   {
     Unreadable(path, "not a 3D volume (dimensions " + std::to_string(dims[0]) + "x" +

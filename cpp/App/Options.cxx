@@ -376,7 +376,8 @@ options:
       --measure-density D
                         sample points per triangle edge for --measure,
                         1..64: (D+1)(D+2)/2 points per triangle (default 3;
-                        lower it for large surfaces)
+                        lower it for large surfaces; 1 measures only the
+                        vertices, which every contour filter puts on S_K)
   -q, --quiet           print nothing but errors
   -h, --help            print this help
       --version         print the version

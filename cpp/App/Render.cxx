@@ -281,11 +281,44 @@ vtkSmartPointer<vtkPolyData> Subdivided(vtkPolyData* input, int n)
   return out;
 }
 
-// vtkMarchingCubes interpolates along cell edges that end at a NaN sample
-// too, which gives NaN points: the triangles using a non-finite point are
-// dropped (PreciseMC skips the cells with non-finite samples), so that the
-// pictures and the measures see the finite part only. Returns how many.
-unsigned long long DropNonFiniteTriangles(vtkPolyData* pd)
+// Whether the cell holding world point `x` of the axis-aligned `volume`
+// has a non-finite corner in component 0 of `values` (float or double, of
+// `components` components).
+template <class T>
+bool CellHasNonFinite(vtkImageData* volume, const T* values, int components, const double x[3])
+{
+  int extent[6];
+  volume->GetExtent(extent);
+  const double* origin = volume->GetOrigin();
+  const double* spacing = volume->GetSpacing();
+  vtkIdType corner[3];
+  vtkIdType dims[3];
+  for (int a = 0; a < 3; ++a)
+  {
+    dims[a] = static_cast<vtkIdType>(extent[2 * a + 1]) - extent[2 * a] + 1;
+    const double u = (x[a] - origin[a]) / spacing[a] - extent[2 * a];
+    const double last = static_cast<double>(std::max<vtkIdType>(dims[a] - 2, 0));
+    corner[a] = static_cast<vtkIdType>(std::min(std::max(std::floor(u), 0.0), last));
+  }
+  for (int c = 0; c < 8; ++c)
+  {
+    const vtkIdType i = std::min(corner[0] + (c & 1), dims[0] - 1);
+    const vtkIdType j = std::min(corner[1] + ((c >> 1) & 1), dims[1] - 1);
+    const vtkIdType k = std::min(corner[2] + ((c >> 2) & 1), dims[2] - 1);
+    if (!std::isfinite(values[(i + dims[0] * (j + dims[1] * k)) * components]))
+    {
+      return true;
+    }
+  }
+  return false;
+}
+
+// vtkMarchingCubes contours cells with NaN or infinite samples too, which
+// gives NaN points, or finite ones pulled to a corner (inf): its triangles
+// in such cells, or using a non-finite point, are dropped (PreciseMC skips
+// the cells with non-finite samples), so that the pictures and the
+// measures see the same cells on both sides. Returns how many.
+unsigned long long DropNonFiniteTriangles(vtkPolyData* pd, vtkImageData* volume)
 {
   vtkPoints* points = pd->GetPoints();
   vtkCellArray* polys = pd->GetPolys();
@@ -303,10 +336,48 @@ unsigned long long DropNonFiniteTriangles(vtkPolyData* pd)
     finite[p] = std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]);
     all = all && finite[p];
   }
-  if (all)
+  // Only floating-point samples can be non-finite.
+  vtkDataArray* scalars = volume->GetPointData()->GetScalars();
+  const int type = scalars ? scalars->GetDataType() : VTK_VOID;
+  const bool floating = type == VTK_FLOAT || type == VTK_DOUBLE;
+  const int components = scalars ? scalars->GetNumberOfComponents() : 1;
+  bool anyNonFinite = false;
+  if (floating)
+  {
+    const vtkIdType n = scalars->GetNumberOfTuples();
+    for (vtkIdType t = 0; t < n && !anyNonFinite; ++t)
+    {
+      anyNonFinite = type == VTK_FLOAT
+        ? !std::isfinite(static_cast<const float*>(scalars->GetVoidPointer(0))[t * components])
+        : !std::isfinite(static_cast<const double*>(scalars->GetVoidPointer(0))[t * components]);
+    }
+  }
+  if (all && !anyNonFinite)
   {
     return 0;
   }
+  auto inBadCell = [&](vtkIdType n, const vtkIdType* ids) {
+    if (!anyNonFinite)
+    {
+      return false;
+    }
+    // The centroid of a Marching Cubes triangle lies in its cell.
+    double c[3] = { 0.0, 0.0, 0.0 };
+    for (vtkIdType k = 0; k < n; ++k)
+    {
+      double x[3];
+      points->GetPoint(ids[k], x);
+      for (int a = 0; a < 3; ++a)
+      {
+        c[a] += x[a] / static_cast<double>(n);
+      }
+    }
+    return type == VTK_FLOAT
+      ? CellHasNonFinite(
+          volume, static_cast<const float*>(scalars->GetVoidPointer(0)), components, c)
+      : CellHasNonFinite(
+          volume, static_cast<const double*>(scalars->GetVoidPointer(0)), components, c);
+  };
   // The kept points are renumbered in order, with their point data.
   vtkPointData* inPD = pd->GetPointData();
   vtkNew<vtkPointData> outPD;
@@ -326,7 +397,7 @@ unsigned long long DropNonFiniteTriangles(vtkPolyData* pd)
     {
       keep = finite[ids[k]] != 0;
     }
-    if (!keep)
+    if (!keep || inBadCell(n, ids))
     {
       ++dropped;
       continue;
@@ -399,7 +470,7 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(
   }
   auto out = vtkSmartPointer<vtkPolyData>::New();
   out->ShallowCopy(mc->GetOutput());
-  unsigned long long removed = DropNonFiniteTriangles(out);
+  unsigned long long removed = DropNonFiniteTriangles(out, aligned);
   if (dropped)
   {
     *dropped = removed;

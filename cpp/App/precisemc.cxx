@@ -25,7 +25,9 @@
 #include "vtkVersion.h"
 #include "vtkXMLImageDataWriter.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -216,8 +218,33 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
   return sets;
 }
 
+// Whether single-precision points would round the surface by more than a
+// tenth of epsilon (1/100 of a cell with refinement off): float keeps 24
+// bits, so far from the origin (geographic coordinates, an extent that
+// starts at 2^31) its rounding exceeds what refinement achieved, or the
+// coordinates overflow it.
+bool NeedsDoublePoints(vtkImageData* volume, double epsilon)
+{
+  double bounds[6];
+  volume->GetBounds(bounds);
+  double largest = 0.0;
+  for (double b : bounds)
+  {
+    largest = std::max(largest, std::fabs(b));
+  }
+  const double* spacing = volume->GetSpacing();
+  double cell = std::min({ std::fabs(spacing[0]), std::fabs(spacing[1]), std::fabs(spacing[2]) });
+  const double tolerance = epsilon > 0.0 ? 0.1 * epsilon : 0.01;
+  return !std::isfinite(largest) || largest > 1e38 ||
+    largest * std::ldexp(1.0, -24) > tolerance * cell;
+}
+
 void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels)
 {
+  vtkImageData* volume = vtkImageData::SafeDownCast(f->GetInputDataObject(0, 0));
+  f->SetOutputPointsPrecision(volume && NeedsDoublePoints(volume, o.Epsilon)
+      ? vtkAlgorithm::DOUBLE_PRECISION
+      : vtkAlgorithm::SINGLE_PRECISION);
   f->SetEpsilon(o.Epsilon);
   f->SetMaxLevel(o.MaxLevel);
   f->SetRule(o.Rule);
@@ -553,7 +580,7 @@ int main(int argc, char* argv[])
         if (panel.MCDropped > 0)
         {
           table << Row("MC non-finite", pmcapp::Grouped(panel.MCDropped) +
-              " vtkMarchingCubes triangles at NaN samples dropped (not shown, not measured)");
+              " vtkMarchingCubes triangles in cells with NaN or infinite samples dropped (not shown, not measured)");
         }
         if (!o.Distance.empty() && panel.MC->GetNumberOfPolys() == 0)
         {

@@ -1012,6 +1012,116 @@ def nrrd_headers_vtk_misreads_are_refused():
 
 
 @check
+def nrrd_headers_vtk_hangs_on_or_misreads_are_refused():
+    """An attached header that no blank line ends (VTK 9.1's reader never
+    returns), sizes that are not positive, a first axis the reader takes
+    for vector components, and a MetaImage header with a negative size:
+    each refused with its reason, in time."""
+    d = fresh_dir("nrrd-hang")
+    out = os.path.join(d, "o.vtp")
+    data = np.arange(12 ** 3, dtype="<f4").tobytes()
+    head = "NRRD0004\ntype: float\ndimension: 3\nsizes: %s\nendian: little\nencoding: raw\n"
+    cases = [
+        ("noblank.nrrd", (head % "12 12 12").encode() + data, "no blank line ends the header"),
+        ("negative.nrrd", (head % "-12 12 12").encode() + b"\n" + data, "positive integers"),
+        ("zero.nrrd", (head % "12 0 12").encode() + b"\n" + data, "positive integers"),
+        ("short.nrrd", (head % "4 4 4").encode() + b"\n" + np.zeros(64, "<f4").tobytes(),
+         "4x4x1 samples of 4 components"),
+        ("negative.mhd", b"ObjectType = Image\nNDims = 3\nDimSize = -12 12 12\n"
+         b"ElementType = MET_FLOAT\nElementDataFile = LOCAL\n" + data, "no samples along axis 0"),
+    ]
+    for name, content, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(content)
+        start = time.monotonic()
+        expect_error([path, "-o", out], fragment, outputs=[out])
+        expect(time.monotonic() - start < 60, f"{name}: took {time.monotonic() - start:.0f} s")
+
+
+@check
+def far_from_the_origin_the_refinement_is_kept():
+    """Single-precision points round the surface by 0.25 cells at 4e6 with
+    unit spacing: the tool stores points in double precision there (and
+    where float overflows), so --measure shows what refinement achieved."""
+    d = fresh_dir("far-origin")
+    dims, _, _, v = blob_volume()
+    results = {}
+    for label, origin in (("near", (0.0, 0.0, 0.0)), ("far", (5e5, 4e6, 0.0)),
+                          ("beyond float", (1e39, 0.0, 0.0))):
+        image = vtkImageData()
+        image.SetDimensions(*dims)
+        image.SetOrigin(*origin)
+        arr = numpy_to_vtk(v.ravel(), deep=True)
+        arr.SetName("density")
+        image.GetPointData().SetScalars(arr)
+        path = os.path.join(d, label.replace(" ", "-") + ".vti")
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(image)
+        w.Write()
+        vtp = os.path.join(d, label.replace(" ", "-") + ".vtp")
+        r = ok(path, "-v", "40", "--epsilon", "0.001", "--measure", "-o", vtp)
+        (out_max, out_mean, _), = measured(r.stdout, "S_K distance out")
+        results[label] = (out_max, out_mean)
+        pts = vtk_to_numpy(read_surface(vtp).GetPoints().GetData())
+        expect(np.isfinite(pts).all(), f"{label}: non-finite points written")
+        if label != "beyond float":  # (where doubles are a 1e23 apart)
+            expect(out_max <= 0.0015, f"{label}: max distance {out_max} (refined to 0.001)")
+    expect(abs(results["far"][1] - results["near"][1]) <= 0.2 * results["near"][1] + 1e-5,
+           f"mean distance far from the origin {results['far']} vs near it {results['near']}")
+
+
+@check
+def infinite_samples_drop_the_same_cells_on_both_sides():
+    """A sample set to +inf: vtkMarchingCubes's triangles around it have
+    finite points (pulled to a corner); they are dropped like PreciseMC's
+    skipped cells, so its measured distance stays that of the other cells."""
+    d = fresh_dir("inf-sample")
+    dims, spacing, origin, v = blob_volume()
+    rows = {}
+    for label in ("finite", "inf"):
+        w = v.copy()
+        if label == "inf":
+            # The sample nearest the isovalue: cells around it are crossed.
+            w.flat[np.argmin(np.abs(w - 40.0))] = np.inf
+        image = vtkImageData()
+        image.SetDimensions(*dims)
+        image.SetSpacing(*spacing)
+        image.SetOrigin(*origin)
+        arr = numpy_to_vtk(w.ravel(), deep=True)
+        arr.SetName("density")
+        image.GetPointData().SetScalars(arr)
+        path = os.path.join(d, label + ".vti")
+        wr = vtkXMLImageDataWriter()
+        wr.SetFileName(path)
+        wr.SetInputData(image)
+        wr.Write()
+        r = ok(path, "-v", "40", "--measure")
+        rows[label] = r.stdout
+    (mc_max, _, _), = measured(rows["finite"], "S_K distance MC")
+    (mc_max_inf, _, _), = measured(rows["inf"], "S_K distance MC")
+    expect("NaN or infinite" in rows["inf"], rows["inf"])
+    expect(mc_max_inf <= mc_max + 1e-4, f"MC max {mc_max_inf} with an inf sample vs {mc_max}")
+
+
+@check
+def output_piped_into_an_early_quitter_leaves_nothing_behind():
+    """`precisemc ... | head -1`: the tool dies of SIGPIPE once the reader
+    is gone, and removes its temporary files as on SIGINT."""
+    d = fresh_dir("sigpipe")
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    p = subprocess.Popen([TOOL, "--sample", "all", "-o", os.path.join(d, "s.ply"), "--measure"],
+                         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=environment, cwd=d)
+    p.stdout.close()  # the reader quits before the tool writes
+    p.wait(timeout=TIMEOUT)
+    expect(p.returncode != 0, f"exit status {p.returncode} with nobody reading its output")
+    leftovers = [f for f in os.listdir(d) if ".tmp" in f]
+    expect(not leftovers, f"temporary files left: {leftovers}")
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
