@@ -74,6 +74,12 @@ impl Default for MeasureOptions {
 /// minutes (1e-10), and a whole mesh hours.
 pub const MIN_TOLERANCE: f64 = 1e-8;
 
+/// How far outside the volume a measured point may lie, in cells (index
+/// space, along each axis): farther, the squares of distances and of
+/// triangle areas in the area-weighted sums overflow (the mean and RMS
+/// came out infinite from about 1e77 cells, the max from 1e154).
+pub const MAX_MEASURE_REACH: f64 = 1e60;
+
 /// Distance statistics of a mesh to `S_K`, in cell units.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Distance {
@@ -103,6 +109,7 @@ pub struct Distance {
 /// `pmc_measure_distance` takes world points and no index offset: there,
 /// move the volume's origin by `spacing * offset` instead.) Triangles
 /// index `points`. Errors: invalid volume, non-finite isovalue or points,
+/// points farther than [`MAX_MEASURE_REACH`] cells outside the volume,
 /// triangle indices out of range, `density` outside `1..=1024`, tolerance
 /// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
 /// `[0, 1)`. Runs on `options.threads` threads that are all joined
@@ -152,6 +159,14 @@ pub fn measure(
         .iter()
         .map(|p| DVec3::new(p[0] - off[0], p[1] - off[1], p[2] - off[2]))
         .collect();
+    let last = volume.dims.map(|n| n.saturating_sub(1) as f64);
+    if local.iter().any(|q| {
+        (0..3).any(|a| !(q[a] >= -MAX_MEASURE_REACH && q[a] <= last[a] + MAX_MEASURE_REACH))
+    }) {
+        return Err(Error::InvalidMeasure(
+            "points must lie within 1e60 cells of the volume (MAX_MEASURE_REACH)",
+        ));
+    }
     // A scoped pool, as the extraction's: its threads are joined before
     // the call returns, so no thread outlives it (a host may unload the
     // library right after).

@@ -251,6 +251,64 @@ fn invalid_input_is_an_error() {
     assert_eq!((d.samples, d.unresolved), (0, 15));
 }
 
+/// Far from the volume the distance is the distance to the nearest point
+/// of `S_K`, finite in max, mean and RMS up to `MAX_MEASURE_REACH` (they
+/// overflowed to infinity from about 1e77 cells), and a point beyond that
+/// is an error, not an infinite distance.
+#[test]
+fn far_points_up_to_the_reach_are_measured_and_beyond_it_refused() {
+    use precisemc::accuracy::MAX_MEASURE_REACH;
+    // The plane x = 2.3 in a 5^3 volume.
+    let dims = [5, 5, 5];
+    let values = grid_fn(dims, |x, _, _| x);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let o = MeasureOptions::default();
+    for far in [1e10, 1e40, 1e59, MAX_MEASURE_REACH] {
+        for (p, want) in [
+            ([2.3 + far, 2.0, 2.0], far),
+            ([2.3 - far, 2.0, 2.0], far),
+            // Beyond a corner of the plane's square: sqrt(2) far along y, z.
+            ([2.3, 4.0 + far, 4.0 + far], far * 2f64.sqrt()),
+        ] {
+            // A triangle as large as the distance: its area enters the
+            // weighted sums.
+            let pts = [
+                p,
+                [p[0], p[1] - far * 0.5, p[2]],
+                [p[0], p[1], p[2] - far * 0.5],
+            ];
+            let d = measure(&vol, 2.3, &pts, &[[0, 1, 2]], &o).unwrap();
+            assert_eq!(d.unresolved, 0, "{p:?}");
+            assert!(
+                d.max.is_finite() && d.mean.is_finite() && d.rms.is_finite(),
+                "{p:?}: {d:?}"
+            );
+            assert!(
+                d.max >= want * (1.0 - 1e-9),
+                "{p:?}: max {} < {want}",
+                d.max
+            );
+            assert!(
+                d.mean >= 0.5 * want && d.rms >= d.mean * (1.0 - 1e-12),
+                "{p:?}: {d:?}"
+            );
+        }
+    }
+    for p in [
+        [2.0, 2.0, -2.0 * MAX_MEASURE_REACH],
+        [4.0 + 2.0 * MAX_MEASURE_REACH, 2.0, 2.0],
+        [1e200, 0.0, 0.0],
+    ] {
+        assert!(
+            matches!(
+                measure(&vol, 2.3, &[p], &[[0, 0, 0]], &o),
+                Err(Error::InvalidMeasure(_))
+            ),
+            "{p:?}"
+        );
+    }
+}
+
 /// The C entry point gives the Rust result for a mesh in world
 /// coordinates, and rejects bad arguments with the documented statuses.
 #[test]

@@ -50,7 +50,9 @@ pub struct pmc_distance {
 /// `out` (or `points`/`triangles` with a non-zero count);
 /// `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume, a non-finite
 /// isovalue or point, a point outside the volume's representable index
-/// range (`(p - origin) / spacing` overflows), a point id out of range,
+/// range (`(p - origin) / spacing` overflows) or more than 1e60 cells
+/// outside the volume (`precisemc::accuracy::MAX_MEASURE_REACH`), a point
+/// id out of range,
 /// or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
 /// made or the worker threads cannot be started. Uses all cores; the
