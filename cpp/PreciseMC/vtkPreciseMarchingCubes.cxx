@@ -821,38 +821,59 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // A mirroring transform would turn the triangles inside out: keep the
     // normal (p1 - p0) x (p2 - p0) pointing towards lower values.
     flipWinding = vtkMath::Determinant3x3(indexToWorld) < 0.0;
-    // Points are mapped below as origin + column 0 * i + column 1 * j +
-    // column 2 * k: each partial sum is linear in the indices, so when it
-    // is finite at the corners of the extent it is finite everywhere in
-    // it. (The library refuses an overflowing axis-aligned grid itself.)
-    for (int corner = 0; corner < 8; ++corner)
+  }
+
+  // The world box of the extent. Points are mapped below as origin +
+  // column 0 * i + column 1 * j + column 2 * k: each partial sum is linear
+  // in the indices, so when it is finite at the corners of the extent it
+  // is finite everywhere in it. (The library refuses an overflowing
+  // axis-aligned grid itself.) Its largest coordinate decides whether
+  // float points can hold the output.
+  double worldMax = 0.0;
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const double ijk[3] = { static_cast<double>(dataExtent[corner & 1 ? 1 : 0]),
+      static_cast<double>(dataExtent[corner & 2 ? 3 : 2]),
+      static_cast<double>(dataExtent[corner & 4 ? 5 : 4]) };
+    for (int r = 0; r < 3; ++r)
     {
-      const double ijk[3] = { static_cast<double>(dataExtent[corner & 1 ? 1 : 0]),
-        static_cast<double>(dataExtent[corner & 2 ? 3 : 2]),
-        static_cast<double>(dataExtent[corner & 4 ? 5 : 4]) };
-      for (int r = 0; r < 3; ++r)
+      double x = origin[r];
+      bool finite = true;
+      for (int c = 0; c < 3; ++c)
       {
-        double x = origin[r];
-        bool finite = true;
-        for (int c = 0; c < 3; ++c)
-        {
-          x += indexToWorld[r][c] * ijk[c];
-          finite = finite && std::isfinite(x);
-        }
-        if (!finite)
-        {
-          vtkErrorMacro(<< "Invalid image geometry: the world coordinates of the extent ("
-                        << dataExtent[0] << ".." << dataExtent[1] << ", " << dataExtent[2] << ".."
-                        << dataExtent[3] << ", " << dataExtent[4] << ".." << dataExtent[5]
-                        << ") are not finite (they overflow) with origin (" << origin[0] << ", " << origin[1] << ", "
-                        << origin[2] << "), spacing (" << spacing[0] << ", " << spacing[1] << ", "
-                        << spacing[2] << ") and the direction matrix");
-          output->Initialize();
-          return 1;
-        }
+        x += (axisAligned ? (r == c ? spacing[c] : 0.0) : indexToWorld[r][c]) * ijk[c];
+        finite = finite && std::isfinite(x);
+      }
+      if (!finite && !axisAligned)
+      {
+        vtkErrorMacro(<< "Invalid image geometry: the world coordinates of the extent ("
+                      << dataExtent[0] << ".." << dataExtent[1] << ", " << dataExtent[2] << ".."
+                      << dataExtent[3] << ", " << dataExtent[4] << ".." << dataExtent[5]
+                      << ") are not finite (they overflow) with origin (" << origin[0] << ", "
+                      << origin[1] << ", " << origin[2] << "), spacing (" << spacing[0] << ", "
+                      << spacing[1] << ", " << spacing[2] << ") and the direction matrix");
+        output->Initialize();
+        return 1;
+      }
+      if (finite)
+      {
+        worldMax = std::max(worldMax, std::fabs(x));
       }
     }
   }
+  // Float points would be infinite beyond float's range: DEFAULT_PRECISION
+  // then gives double points, SINGLE_PRECISION is refused.
+  const bool floatOverflows = worldMax > static_cast<double>(std::numeric_limits<float>::max());
+  if (floatOverflows && this->OutputPointsPrecision == vtkAlgorithm::SINGLE_PRECISION)
+  {
+    vtkErrorMacro(<< "The world coordinates of the input reach " << worldMax
+                  << ", beyond single precision: set OutputPointsPrecision to DOUBLE_PRECISION "
+                     "(or DEFAULT_PRECISION)");
+    output->Initialize();
+    return 1;
+  }
+  const bool doublePoints =
+    this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION || floatOverflows;
 
   // The first sample read (of the contoured extent, or of its ghost layer),
   // as a value index.
@@ -1069,8 +1090,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 
   // Points.
   vtkNew<vtkPoints> newPts;
-  newPts->SetDataType(
-    this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION ? VTK_DOUBLE : VTK_FLOAT);
+  newPts->SetDataType(doublePoints ? VTK_DOUBLE : VTK_FLOAT);
   newPts->SetNumberOfPoints(numPts);
   float* floatPts = nullptr;
   double* doublePts = nullptr;

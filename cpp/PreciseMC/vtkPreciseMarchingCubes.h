@@ -288,7 +288,9 @@ public:
    * vtkAlgorithm::DesiredOutputPrecision for the available settings.
    * DEFAULT_PRECISION and SINGLE_PRECISION give float points (like
    * vtkMarchingCubes), DOUBLE_PRECISION gives the points exactly as
-   * computed.
+   * computed. Where the input's world coordinates go beyond float's range
+   * (about 3.4e38), DEFAULT_PRECISION gives double points and
+   * SINGLE_PRECISION is an error (float points would be infinite).
    */
   vtkSetClampMacro(OutputPointsPrecision, int, SINGLE_PRECISION, DEFAULT_PRECISION);
   vtkGetMacro(OutputPointsPrecision, int);

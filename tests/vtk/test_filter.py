@@ -439,6 +439,32 @@ def test_world_coordinates_that_overflow_are_refused(direction, spacing):
     assert np.isfinite(points(g.GetOutput())).all()
 
 
+def test_coordinates_beyond_float_give_double_points_or_an_error():
+    # Float points would be infinite at 1e39: the default precision gives
+    # double points there, single precision is refused, as asked.
+    image = wavelet(8)
+    image.SetOrigin(1e39, 0.0, 0.0)
+    for direction in ((1, 0, 0, 0, 1, 0, 0, 0, 1), (0, 1, 0, 1, 0, 0, 0, 0, 1)):
+        image.SetDirectionMatrix(*direction)
+        g = precise(image, [150.0], OutputPointsPrecision=2)  # DEFAULT_PRECISION
+        out = g.GetOutput()
+        assert out.GetNumberOfPolys() > 100
+        assert out.GetPoints().GetDataType() == 11  # VTK_DOUBLE
+        assert np.isfinite(points(out)).all()
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image)
+        f.SetValue(0, 150.0)
+        f.SetOutputPointsPrecision(0)  # SINGLE_PRECISION
+        errors = ErrorObserver(f)
+        f.Update()
+        assert errors.errors and "single precision" in errors.errors[-1], errors.errors
+        assert f.GetOutput().GetNumberOfPoints() == 0
+    # Within float's range the default stays float.
+    image.SetOrigin(1e30, 0.0, 0.0)
+    default = precise(image, [150.0], OutputPointsPrecision=2).GetOutput()
+    assert default.GetPoints().GetDataType() == 10  # VTK_FLOAT
+
+
 def test_thread_count_is_clamped_to_the_library_limit():
     f = vtkPreciseMarchingCubes()
     f.SetNumberOfThreads(100000)
