@@ -747,7 +747,10 @@ int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
  * Unit normals per point, pointing towards lower sample values:
  * `3 * pmc_mesh_point_count` floats; (0, 0, 0) where the gradient
  * vanishes (in gradient mode, the central differences too) or is not
- * finite. `NULL` when normals were not requested
+ * finite (next to NaN or infinite samples the other mode's estimate is
+ * taken first, and central differences leave those samples out, so this
+ * takes a point with no finite sample on some axis around it). `NULL`
+ * when normals were not requested
  * (`PMC_NORMALS_NONE`) and for a `NULL` or empty mesh.
  *
  * # Safety

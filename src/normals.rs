@@ -67,8 +67,50 @@ fn finish(g: DVec3, spacing: [f64; 3]) -> [f32; 3] {
     }
 }
 
+/// The cells holding global index point `p` (up to 8 where it lies on
+/// faces, edges or samples: [`locate`]'s first), each with the local
+/// coordinates of `p` in it; `f(cell, local)` is called on each in a fixed
+/// order until it returns `Some`.
+fn each_cell<R>(
+    p: DVec3,
+    dims: [usize; 3],
+    off: [i64; 3],
+    mut f: impl FnMut([usize; 3], DVec3) -> Option<R>,
+) -> Option<R> {
+    let (c, l) = locate(p, dims, off);
+    for k in 0..8 {
+        let mut cell = c;
+        let mut local = l;
+        let mut exists = true;
+        for a in 0..3 {
+            if k & (1 << a) != 0 {
+                // The neighbour across a face the point lies on.
+                if l[a] == 0.0 && c[a] > 0 {
+                    cell[a] -= 1;
+                    local[a] = 1.0;
+                } else if l[a] == 1.0 && c[a] + 2 < dims[a] {
+                    cell[a] += 1;
+                    local[a] = 0.0;
+                } else {
+                    exists = false;
+                }
+            }
+        }
+        if exists {
+            if let Some(r) = f(cell, local) {
+                return Some(r);
+            }
+        }
+    }
+    None
+}
+
 /// Normals for `index_points` (empty for [`NormalMode::None`]); an error
-/// when their memory is not available.
+/// when their memory is not available. A point next to NaN or infinite
+/// samples gets the gradient of a cell around it whose samples are all
+/// finite, or central differences that leave the non-finite samples out
+/// (one-sided beside them); (0, 0, 0) only where neither exists or the
+/// gradient vanishes.
 pub(crate) fn compute_normals<T: Scalar>(
     filter: &Trilinear<'_, T>,
     volume: &Volume<'_>,
@@ -87,61 +129,89 @@ pub(crate) fn compute_normals<T: Scalar>(
     let spacing = volume.spacing;
     // Central differences at the grid points, interpolated trilinearly at
     // the point (VTK's way).
+    // (One-sided at the volume's faces and beside a non-finite sample.)
     let grad = |i: usize, j: usize, k: usize| -> DVec3 {
         let idx = [i, j, k];
+        let at = |q: [usize; 3]| g.get(q[0], q[1], q[2]);
+        let mid = at(idx);
         let mut out = DVec3::ZERO;
         for a in 0..3 {
             let mut lo = idx;
             let mut hi = idx;
-            let mut h = 2.0;
-            if idx[a] == 0 {
-                hi[a] += 1;
-                h = 1.0;
-            } else if idx[a] == dims[a] - 1 {
+            let below = idx[a] > 0 && {
                 lo[a] -= 1;
-                h = 1.0;
-            } else {
-                lo[a] -= 1;
+                at(lo).is_finite()
+            };
+            let above = idx[a] + 1 < dims[a] && {
                 hi[a] += 1;
-            }
-            out[a] = (g.get(hi[0], hi[1], hi[2]) - g.get(lo[0], lo[1], lo[2])) / h;
+                at(hi).is_finite()
+            };
+            out[a] = match (below, above) {
+                (true, true) => (at(hi) - at(lo)) / 2.0,
+                (false, true) => at(hi) - mid,
+                (true, false) => mid - at(lo),
+                (false, false) => f64::NAN,
+            };
         }
         out
     };
+    // Corners of no weight are left out: a point on a face or a sample does
+    // not take 0 x NaN from beyond it.
     let central = |c: [usize; 3], l: DVec3| {
         let mut n = DVec3::ZERO;
         for cc in crate::tables::cube::CORNERS.iter() {
             let w = (if cc[0] == 1 { l.x } else { 1.0 - l.x })
                 * (if cc[1] == 1 { l.y } else { 1.0 - l.y })
                 * (if cc[2] == 1 { l.z } else { 1.0 - l.z });
-            n += grad(
-                c[0] + cc[0] as usize,
-                c[1] + cc[1] as usize,
-                c[2] + cc[2] as usize,
-            ) * w;
+            if w != 0.0 {
+                n += grad(
+                    c[0] + cc[0] as usize,
+                    c[1] + cc[1] as usize,
+                    c[2] + cc[2] as usize,
+                ) * w;
+            }
         }
         n
+    };
+    let finite = |v: DVec3| v.is_finite();
+    // The gradient of the first cell around the point whose samples are
+    // all finite (the surface's own cells are; a point on their faces may
+    // be located in a neighbour that is not).
+    let gradient = |p: DVec3| {
+        each_cell(p, dims, off, |c, l| {
+            let v = filter.corners(c);
+            v.iter()
+                .all(|x| x.is_finite())
+                .then(|| trilinear_gradient(&v, l))
+        })
+    };
+    // Central differences interpolated in the first cell around the point
+    // where they are finite.
+    let differences = |p: DVec3| {
+        each_cell(p, dims, off, |c, l| {
+            Some(central(c, l)).filter(|n| finite(*n))
+        })
     };
     match mode {
         NormalMode::None => {}
         NormalMode::Gradient => exec.extend(&mut normals, index_points, |p| {
-            let (c, l) = locate(DVec3::from_array(*p), dims, off);
-            let v = filter.corners(c);
-            let n = trilinear_gradient(&v, l);
+            let p = DVec3::from_array(*p);
             // A point on a sample takes the gradient of the cell on its
             // upper side, which is flat where that side's samples all
             // equal it (a label volume contoured at a label's value):
             // the central differences there instead, never a zero normal
             // where the data has a slope.
-            if n == DVec3::ZERO {
-                finish(central(c, l), spacing)
-            } else {
-                finish(n, spacing)
+            match gradient(p) {
+                Some(n) if n != DVec3::ZERO => finish(n, spacing),
+                found => finish(differences(p).or(found).unwrap_or(DVec3::ZERO), spacing),
             }
         })?,
         NormalMode::CentralDifference => exec.extend(&mut normals, index_points, |p| {
-            let (c, l) = locate(DVec3::from_array(*p), dims, off);
-            finish(central(c, l), spacing)
+            let p = DVec3::from_array(*p);
+            let n = differences(p)
+                .or_else(|| gradient(p))
+                .unwrap_or(DVec3::ZERO);
+            finish(n, spacing)
         })?,
     }
     Ok(normals)
