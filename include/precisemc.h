@@ -747,9 +747,10 @@ int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
  * Unit normals per point, pointing towards lower sample values:
  * `3 * pmc_mesh_point_count` floats; (0, 0, 0) where the gradient
  * vanishes (in gradient mode, the central differences too) or is not
- * finite (next to NaN or infinite samples the other mode's estimate is
- * taken first, and central differences leave those samples out, so this
- * takes a point with no finite sample on some axis around it). `NULL`
+ * finite in either mode (next to NaN or infinite samples: gradient mode
+ * takes a cell around the point whose samples are finite, central
+ * differences leave such samples out, and each mode falls back on the
+ * other). `NULL`
  * when normals were not requested
  * (`PMC_NORMALS_NONE`) and for a `NULL` or empty mesh.
  *
