@@ -145,16 +145,21 @@ def blob_volume():
     return (nx, ny, nz), (0.8, 0.9, 1.1), (1.0, -2.0, 0.5), v.astype(np.float32)
 
 
-def blob_image():
-    dims, spacing, origin, v = blob_volume()
+def density_image(values, dims, spacing, origin):
+    """`values` (z, y, x order) as image data with scalars "density"."""
     image = vtkImageData()
     image.SetDimensions(*dims)
     image.SetSpacing(*spacing)
     image.SetOrigin(*origin)
-    arr = numpy_to_vtk(v.ravel(), deep=True)
+    arr = numpy_to_vtk(np.ascontiguousarray(values).ravel(), deep=True)
     arr.SetName("density")
     image.GetPointData().SetScalars(arr)
     return image
+
+
+def blob_image():
+    dims, spacing, origin, v = blob_volume()
+    return density_image(v, dims, spacing, origin)
 
 
 def write_inputs(d):
@@ -1049,17 +1054,8 @@ def far_from_the_origin_the_refinement_is_kept():
     results = {}
     for label, origin in (("near", (0.0, 0.0, 0.0)), ("far", (5e5, 4e6, 0.0)),
                           ("beyond float", (1e39, 0.0, 0.0))):
-        image = vtkImageData()
-        image.SetDimensions(*dims)
-        image.SetOrigin(*origin)
-        arr = numpy_to_vtk(v.ravel(), deep=True)
-        arr.SetName("density")
-        image.GetPointData().SetScalars(arr)
         path = os.path.join(d, label.replace(" ", "-") + ".vti")
-        w = vtkXMLImageDataWriter()
-        w.SetFileName(path)
-        w.SetInputData(image)
-        w.Write()
+        write_vti(density_image(v, dims, (1.0, 1.0, 1.0), origin), path)
         vtp = os.path.join(d, label.replace(" ", "-") + ".vtp")
         r = ok(path, "-v", "40", "--epsilon", "0.001", "--measure", "-o", vtp)
         (out_max, out_mean, _), = measured(r.stdout, "S_K distance out")
@@ -1085,18 +1081,8 @@ def infinite_samples_drop_the_same_cells_on_both_sides():
         if label == "inf":
             # The sample nearest the isovalue: cells around it are crossed.
             w.flat[np.argmin(np.abs(w - 40.0))] = np.inf
-        image = vtkImageData()
-        image.SetDimensions(*dims)
-        image.SetSpacing(*spacing)
-        image.SetOrigin(*origin)
-        arr = numpy_to_vtk(w.ravel(), deep=True)
-        arr.SetName("density")
-        image.GetPointData().SetScalars(arr)
         path = os.path.join(d, label + ".vti")
-        wr = vtkXMLImageDataWriter()
-        wr.SetFileName(path)
-        wr.SetInputData(image)
-        wr.Write()
+        write_vti(density_image(w, dims, spacing, origin), path)
         r = ok(path, "-v", "40", "--measure")
         rows[label] = r.stdout
     (mc_max, _, _), = measured(rows["finite"], "S_K distance MC")
