@@ -128,29 +128,31 @@ pub(crate) fn compute_normals<T: Scalar>(
     let off = g.index_offset;
     let spacing = volume.spacing;
     // Central differences at the grid points, interpolated trilinearly at
-    // the point (VTK's way).
-    // (One-sided at the volume's faces and beside a non-finite sample.)
+    // the point (VTK's way); one-sided at the volume's faces and beside a
+    // non-finite sample.
     let grad = |i: usize, j: usize, k: usize| -> DVec3 {
         let idx = [i, j, k];
         let at = |q: [usize; 3]| g.get(q[0], q[1], q[2]);
+        // The finite neighbour along axis `a`, below or above.
+        let neighbour = |a: usize, above: bool| {
+            let mut q = idx;
+            if above && idx[a] + 1 < dims[a] {
+                q[a] += 1;
+            } else if !above && idx[a] > 0 {
+                q[a] -= 1;
+            } else {
+                return None;
+            }
+            Some(at(q)).filter(|v| v.is_finite())
+        };
         let mid = at(idx);
         let mut out = DVec3::ZERO;
         for a in 0..3 {
-            let mut lo = idx;
-            let mut hi = idx;
-            let below = idx[a] > 0 && {
-                lo[a] -= 1;
-                at(lo).is_finite()
-            };
-            let above = idx[a] + 1 < dims[a] && {
-                hi[a] += 1;
-                at(hi).is_finite()
-            };
-            out[a] = match (below, above) {
-                (true, true) => (at(hi) - at(lo)) / 2.0,
-                (false, true) => at(hi) - mid,
-                (true, false) => mid - at(lo),
-                (false, false) => f64::NAN,
+            out[a] = match (neighbour(a, false), neighbour(a, true)) {
+                (Some(lo), Some(hi)) => (hi - lo) / 2.0,
+                (None, Some(hi)) => hi - mid,
+                (Some(lo), None) => mid - lo,
+                (None, None) => f64::NAN,
             };
         }
         out
@@ -173,7 +175,6 @@ pub(crate) fn compute_normals<T: Scalar>(
         }
         n
     };
-    let finite = |v: DVec3| v.is_finite();
     // The gradient of the first cell around the point whose samples are
     // all finite (the surface's own cells are; a point on their faces may
     // be located in a neighbour that is not).
@@ -189,7 +190,7 @@ pub(crate) fn compute_normals<T: Scalar>(
     // where they are finite.
     let differences = |p: DVec3| {
         each_cell(p, dims, off, |c, l| {
-            Some(central(c, l)).filter(|n| finite(*n))
+            Some(central(c, l)).filter(|n| n.is_finite())
         })
     };
     match mode {

@@ -30,11 +30,11 @@
 #include "vtkXMLPolyDataWriter.h"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstdlib>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <sstream>

@@ -313,6 +313,21 @@ bool CellHasNonFinite(vtkImageData* volume, const T* values, int components, con
   return false;
 }
 
+// Whether component 0 of `count` tuples of `components` values holds a
+// NaN or an infinity.
+template <class T>
+bool AnyNonFinite(const T* values, vtkIdType count, int components)
+{
+  for (vtkIdType t = 0; t < count; ++t)
+  {
+    if (!std::isfinite(values[t * components]))
+    {
+      return true;
+    }
+  }
+  return false;
+}
+
 // vtkMarchingCubes contours cells with NaN or infinite samples too, which
 // gives NaN points, or finite ones pulled to a corner (inf): its triangles
 // in such cells, or using a non-finite point, are dropped (PreciseMC skips
@@ -339,19 +354,14 @@ unsigned long long DropNonFiniteTriangles(vtkPolyData* pd, vtkImageData* volume)
   // Only floating-point samples can be non-finite.
   vtkDataArray* scalars = volume->GetPointData()->GetScalars();
   const int type = scalars ? scalars->GetDataType() : VTK_VOID;
-  const bool floating = type == VTK_FLOAT || type == VTK_DOUBLE;
+  const bool isFloat = type == VTK_FLOAT;
   const int components = scalars ? scalars->GetNumberOfComponents() : 1;
-  bool anyNonFinite = false;
-  if (floating)
-  {
-    const vtkIdType n = scalars->GetNumberOfTuples();
-    for (vtkIdType t = 0; t < n && !anyNonFinite; ++t)
-    {
-      anyNonFinite = type == VTK_FLOAT
-        ? !std::isfinite(static_cast<const float*>(scalars->GetVoidPointer(0))[t * components])
-        : !std::isfinite(static_cast<const double*>(scalars->GetVoidPointer(0))[t * components]);
-    }
-  }
+  const void* values =
+    (isFloat || type == VTK_DOUBLE) ? scalars->GetVoidPointer(0) : nullptr;
+  const vtkIdType count = values ? scalars->GetNumberOfTuples() : 0;
+  const bool anyNonFinite = isFloat
+    ? AnyNonFinite(static_cast<const float*>(values), count, components)
+    : AnyNonFinite(static_cast<const double*>(values), count, components);
   if (all && !anyNonFinite)
   {
     return 0;
@@ -372,11 +382,9 @@ unsigned long long DropNonFiniteTriangles(vtkPolyData* pd, vtkImageData* volume)
         c[a] += x[a] / static_cast<double>(n);
       }
     }
-    return type == VTK_FLOAT
-      ? CellHasNonFinite(
-          volume, static_cast<const float*>(scalars->GetVoidPointer(0)), components, c)
-      : CellHasNonFinite(
-          volume, static_cast<const double*>(scalars->GetVoidPointer(0)), components, c);
+    return isFloat
+      ? CellHasNonFinite(volume, static_cast<const float*>(values), components, c)
+      : CellHasNonFinite(volume, static_cast<const double*>(values), components, c);
   };
   // The kept points are renumbered in order, with their point data.
   vtkPointData* inPD = pd->GetPointData();

@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -235,7 +236,7 @@ bool NeedsDoublePoints(vtkImageData* volume, double epsilon)
   const double* spacing = volume->GetSpacing();
   double cell = std::min({ std::fabs(spacing[0]), std::fabs(spacing[1]), std::fabs(spacing[2]) });
   const double tolerance = epsilon > 0.0 ? 0.1 * epsilon : 0.01;
-  return !std::isfinite(largest) || largest > 1e38 ||
+  return !std::isfinite(largest) || largest > std::numeric_limits<float>::max() ||
     largest * std::ldexp(1.0, -24) > tolerance * cell;
 }
 
