@@ -481,6 +481,12 @@ int vtkPreciseMarchingCubes::LibraryScalarType(int vtkType)
 }
 
 //------------------------------------------------------------------------------
+vtkTypeUInt64 vtkPreciseMarchingCubes::ReleaseRetainedMemory()
+{
+  return static_cast<vtkTypeUInt64>(pmc_release_memory());
+}
+
+//------------------------------------------------------------------------------
 // Overload standard modified time function. If contour values are modified,
 // then this object is modified as well.
 vtkMTimeType vtkPreciseMarchingCubes::GetMTime()

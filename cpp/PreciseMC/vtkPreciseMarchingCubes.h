@@ -133,6 +133,19 @@ public:
   static int LibraryScalarType(int vtkType);
 
   /**
+   * Frees the buffers the PreciseMC library keeps between executions and
+   * returns their size in bytes. Every execution hands its working
+   * buffers (and the library's arrays once copied into the output) to
+   * process-wide bins, at most 64 MiB in all, shared by every instance of
+   * the filter, so that the next execution writes into memory already
+   * mapped instead of faulting fresh pages in. Call this after a burst of
+   * executions when the memory is wanted elsewhere; the next execution
+   * then runs on fresh memory, with the same output. Thread-safe:
+   * executions running meanwhile are not affected.
+   */
+  static vtkTypeUInt64 ReleaseRetainedMemory();
+
+  /**
    * How ambiguous cells are triangulated (see SetTopology()).
    */
   enum TopologyModes
