@@ -266,35 +266,71 @@ bool IsRegularFile(const std::string& path)
   return stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
-void CheckWritable(const std::string& path, const std::string& what)
+std::string ThroughLinks(const std::string& path)
 {
-  if (path.empty())
+  std::string at = path;
+  for (int hops = 0; hops <= 40; ++hops)
+  {
+    struct stat st;
+    if (lstat(at.c_str(), &st) != 0 || !S_ISLNK(st.st_mode))
+    {
+      return at;
+    }
+    std::vector<char> target(static_cast<size_t>(st.st_size > 0 ? st.st_size : PATH_MAX) + 1);
+    ssize_t n = readlink(at.c_str(), target.data(), target.size());
+    if (n < 0 || static_cast<size_t>(n) >= target.size())
+    {
+      return at; // Changed meanwhile: written as named.
+    }
+    std::string next(target.data(), static_cast<size_t>(n));
+    if (next.empty())
+    {
+      return at;
+    }
+    if (next[0] != '/')
+    {
+      std::string dir = DirectoryOf(at);
+      next = (dir == "/" ? dir : dir + "/") + next;
+    }
+    at = next;
+  }
+  throw Error("cannot write '" + path + "': too many levels of symbolic links");
+}
+
+void CheckWritable(const std::string& given, const std::string& what)
+{
+  if (given.empty())
   {
     throw Error(what + ": empty file name", 2);
   }
+  const std::string path = ThroughLinks(given);
+  // Messages name the file the user gave, and the link's target too.
+  const std::string named =
+    "'" + given + "'" + (path == given ? std::string() : " (a link to '" + path + "')");
   if (IsDirectory(path))
   {
-    throw Error("cannot write " + what + " '" + path + "': it is a directory");
+    throw Error("cannot write " + what + " " + named + ": it is a directory");
   }
   std::string dir = DirectoryOf(path);
   if (!IsDirectory(dir))
   {
-    throw Error("cannot write " + what + " '" + path + "': directory '" + dir + "' does not exist");
+    throw Error("cannot write " + what + " " + named + ": directory '" + dir + "' does not exist");
   }
   if (access(dir.c_str(), W_OK) != 0)
   {
-    throw Error("cannot write " + what + " '" + path + "': directory '" + dir +
+    throw Error("cannot write " + what + " " + named + ": directory '" + dir +
       "' is not writable (" + std::strerror(errno) + ")");
   }
   if (access(path.c_str(), F_OK) == 0 && access(path.c_str(), W_OK) != 0)
   {
     throw Error(
-      "cannot write " + what + " '" + path + "': " + std::strerror(errno));
+      "cannot write " + what + " " + named + ": " + std::strerror(errno));
   }
 }
 
-std::string CanonicalPath(const std::string& path)
+std::string CanonicalPath(const std::string& given)
 {
+  const std::string path = ThroughLinks(given);
   char* dir = realpath(DirectoryOf(path).c_str(), nullptr);
   if (!dir)
   {
@@ -382,8 +418,8 @@ PendingFiles::~PendingFiles()
 std::string PendingFiles::Add(const std::string& path)
 {
   File f;
-  f.Path = path;
-  f.Temporary = TemporaryPathFor(path);
+  f.Path = ThroughLinks(path);
+  f.Temporary = TemporaryPathFor(f.Path);
   this->Files.push_back(f);
   RegisterPending(f.Temporary);
   return f.Temporary;

@@ -61,13 +61,22 @@ std::string WithSuffix(const std::string& path, const std::string& suffix);
 bool IsDirectory(const std::string& path);
 bool IsRegularFile(const std::string& path);
 
-// Throws Error unless a file can be created at path: its directory exists
-// and is writable, and path is not a directory.
+// The file that writing path replaces: path itself, or, when it is a
+// symbolic link, the file the chain of links ends at (relative targets
+// taken from their link's directory; the target need not exist yet). The
+// tool writes through links, as the shell's ">" does: the link stays and
+// its target gets the content. A chain of more than 40 links (a loop)
+// throws Error.
+std::string ThroughLinks(const std::string& path);
+
+// Throws Error unless a file can be created at path (through its links,
+// ThroughLinks): its directory exists and is writable, and path is not a
+// directory.
 void CheckWritable(const std::string& path, const std::string& what);
 
 // The file path names, for telling two spellings of one file apart:
-// its directory resolved (links, "." and "..") joined to its name; the
-// path itself when the directory cannot be resolved.
+// ThroughLinks(path)'s directory resolved (links, "." and "..") joined to
+// its name; that path itself when the directory cannot be resolved.
 std::string CanonicalPath(const std::string& path);
 
 // A temporary file name next to path (same directory), to write to and
@@ -100,7 +109,8 @@ public:
   PendingFiles(const PendingFiles&) = delete;
   PendingFiles& operator=(const PendingFiles&) = delete;
 
-  // The temporary file (TemporaryPathFor) to write path's content to.
+  // The temporary file (TemporaryPathFor) to write path's content to,
+  // next to the file it will replace (ThroughLinks(path)).
   std::string Add(const std::string& path);
 
   // Renames every temporary onto its path. Throws Error (the remaining

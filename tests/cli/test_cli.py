@@ -918,6 +918,44 @@ def two_spellings_of_one_output():
 
 
 @check
+def outputs_are_written_through_symbolic_links():
+    """An output path that is a symbolic link (relative or absolute, to an
+    existing file or a missing one, through a chain of links) is written
+    through: the link stays a link and its target gets the surface. A link
+    and its target named as two outputs are one file; a loop of links is
+    refused before any work."""
+    d = fresh_dir("links")
+    os.makedirs(os.path.join(d, "real"))
+    target = os.path.join(d, "real", "s.vtp")
+    with open(target, "w") as f:
+        f.write("OLD\n")
+    os.symlink(os.path.join("real", "s.vtp"), os.path.join(d, "rel.vtp"))
+    os.symlink(os.path.join(d, "rel.vtp"), os.path.join(d, "chain.vtp"))
+    for link in ("rel.vtp", "chain.vtp"):
+        path = os.path.join(d, link)
+        ok("--sample", "tube", "--epsilon", "0", "-q", "-o", path)
+        expect(os.path.islink(path), f"{link} was replaced by a file")
+        expect(read_surface(target).GetNumberOfPolys() > 1000, f"{link}: the target not written")
+        expect(sorted(os.listdir(os.path.join(d, "real"))) == ["s.vtp"],
+               f"left behind: {os.listdir(os.path.join(d, 'real'))}")
+    # A dangling link: its target is created.
+    os.remove(target)
+    ok("--sample", "tube", "--epsilon", "0", "-q", "-o", os.path.join(d, "chain.vtp"))
+    expect(os.path.isfile(target), "the missing target was not created")
+    picture = os.path.join(d, "real", "p.png")
+    os.symlink(picture, os.path.join(d, "abs.png"))
+    expect_error(["--sample", "tube", "--compare", os.path.join(d, "abs.png"), "--distance",
+                  picture], "name the same file", status=2)
+    os.symlink("loop2.vtp", os.path.join(d, "loop1.vtp"))
+    os.symlink("loop1.vtp", os.path.join(d, "loop2.vtp"))
+    expect_error(["--sample", "tube", "-o", os.path.join(d, "loop1.vtp")],
+                 "too many levels of symbolic links")
+    os.symlink(os.path.join(d, "nowhere", "s.vtp"), os.path.join(d, "missing-dir.vtp"))
+    expect_error(["--sample", "tube", "-o", os.path.join(d, "missing-dir.vtp")],
+                 "a link to")
+
+
+@check
 def long_output_names_and_interrupts():
     """A file name that fits is written even when its temporary name, which
     adds a prefix and a tag, would not; an interrupted run (SIGTERM) leaves
