@@ -220,6 +220,28 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
     }
     run_test pkgconfig_shared pkgconfig_consumer shared
     run_test pkgconfig_static pkgconfig_consumer static
+
+    # An absolute CMAKE_INSTALL_INCLUDEDIR (as some packagers pass) lands
+    # in both .pc files as it is, and the header is found through them.
+    absolute_includedir() {
+        local cb=$OUT/cmake-build-absinc prefix=$OUT/prefix-absinc inc=$OUT/absinc-include
+        rm -rf "$prefix" "$inc"
+        cmake -S "$ROOT" -B "$cb" -DPRECISEMC_CARGO_TARGET_DIR="$TARGET_DIR" \
+            -DCMAKE_INSTALL_INCLUDEDIR="$inc" >/dev/null &&
+            cmake --build "$cb" >/dev/null &&
+            cmake --install "$cb" --prefix "$prefix" >/dev/null || return 1
+        [[ -f $inc/precisemc.h ]] || { log "no header in $inc"; return 1; }
+        local pc=(env PKG_CONFIG_PATH="$prefix/lib/pkgconfig" pkg-config) name flags
+        for name in precisemc precisemc-static; do
+            flags=$("${pc[@]}" --cflags "$name")
+            [[ ${flags% } == "-I$inc" ]] || { log "$name: cflags '$flags'"; return 1; }
+        done
+        # shellcheck disable=SC2046
+        gcc "${CWARN[@]}" $("${pc[@]}" --cflags precisemc) "$ROOT/tests/cmake_consumer/main.c" \
+            $("${pc[@]}" --libs precisemc-static) -o "$OUT/consumer-absinc" &&
+            "$OUT/consumer-absinc"
+    }
+    run_test pkgconfig_absolute_includedir absolute_includedir
 fi
 
 finish
