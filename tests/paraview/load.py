@@ -60,6 +60,28 @@ def main():
           and abs(domain.GetMinimum(0) - rng[0]) < 1e-6 and abs(domain.GetMaximum(0) - rng[1]) < 1e-6,
           f"{domain.GetMinimum(0)}..{domain.GetMaximum(0)} vs {rng}")
 
+    # With a multi-component array, the domain (and the default value, its
+    # middle) follows the selected component.
+    calc = pvs.Calculator(Input=wavelet, ResultArrayName="vec",
+                          Function="coordsX*iHat + RTData*jHat + 2*RTData*kHat")
+    calc.UpdatePipeline()
+    by_component = pvs.PreciseContour(Input=calc, ContourBy=["POINTS", "vec"], ArrayComponent=2)
+    component_domain = by_component.GetProperty("ContourValues").SMProperty.GetDomain("scalar_range")
+    crng = calc.PointData["vec"].GetRange(2)
+    value = list(by_component.Isosurfaces)
+    check("isosurfaces domain and default follow ArrayComponent",
+          abs(component_domain.GetMinimum(0) - crng[0]) < 1e-3
+          and abs(component_domain.GetMaximum(0) - crng[1]) < 1e-3
+          and len(value) == 1 and crng[0] < value[0] < crng[1],
+          f"{component_domain.GetMinimum(0)}..{component_domain.GetMaximum(0)}, default {value}, "
+          f"component 2 range {crng}")
+    by_component.UpdatePipeline()
+    check("contours the selected component at its default value",
+          by_component.GetDataInformation().GetNumberOfCells() > 1000,
+          f"{by_component.GetDataInformation().GetNumberOfCells()} triangles")
+    pvs.Delete(by_component)
+    pvs.Delete(calc)
+
     contour.Isosurfaces = [157.0]
     contour.ComputeLevels = 1
     contour.UpdatePipeline()
