@@ -170,6 +170,21 @@ bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
   return true;
 }
 
+// Whether the input's cell ghost array marks any cell as a duplicate of
+// another piece's.
+bool HasDuplicateCells(vtkImageData* input)
+{
+  vtkUnsignedCharArray* ghosts = input->GetCellGhostArray();
+  if (!ghosts)
+  {
+    return false;
+  }
+  const unsigned char* flag = ghosts->GetPointer(0);
+  const vtkIdType n = ghosts->GetNumberOfTuples() * ghosts->GetNumberOfComponents();
+  return std::any_of(
+    flag, flag + n, [](unsigned char f) { return (f & vtkDataSetAttributes::DUPLICATECELL) != 0; });
+}
+
 // Asks Linux for transparent huge pages behind a large output array that
 // nothing has written yet (where THP is in `madvise` mode): filling it
 // otherwise takes a page fault per 4 KiB, a good part of the copy's time.
@@ -687,13 +702,17 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // the piece asked for, unless the input is not that either (split by
     // an upstream filter its own way, as Resample To Image does: then all
     // its cells).
+    // (A block of a composite input arrives as a whole volume of its own:
+    // one with cells marked as duplicates is a piece with its ghost layer,
+    // never a volume every piece holds.)
     int piece[6];
     std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
-    const bool ownSplit = this->ContourPieces > 1 &&
-      !std::equal(dataExtent, dataExtent + 6, whole) &&
-      (input->GetCellGhostArray() != nullptr ||
-        !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
-          this->ContourSplitExtent, this->ContourSplitMode));
+    const bool ownSplit = std::equal(dataExtent, dataExtent + 6, whole)
+      ? HasDuplicateCells(input)
+      : this->ContourPieces > 1 &&
+        (input->GetCellGhostArray() != nullptr ||
+          !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
+            this->ContourSplitExtent, this->ContourSplitMode));
     if (ownSplit && !OwnCells(input, dataExtent, piece))
     {
       vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");

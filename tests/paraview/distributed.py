@@ -33,8 +33,11 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 # only its cells).
 # "same_as": the serial configuration whose triangles it must equal.
 # "input": "wavelet" (the default), "attributes" (the Wavelet with a second
-# point array, "aux") or "own-split" (OWN_SPLIT_SOURCE below: no ghost
-# levels, so only runs that need none, without normals).
+# point array, "aux"), "own-split" (OWN_SPLIT_SOURCE below: no ghost
+# levels, so only runs that need none, without normals) or "group" (the
+# Wavelet as the block of a multiblock, Group Datasets: contoured block by
+# block, with the ghost layer the shared Wavelet holds; no ghost level is
+# asked for, so only runs that need none).
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     # Normals read the samples beyond the piece's faces (one ghost level);
@@ -51,6 +54,11 @@ CONFIGS = {
     # again on sub-cells): the shared Wavelet still holds that layer, which
     # this one (no ghost level: classic topology) must not contour.
     "refined-classic-B": dict(Epsilon=0.002, MaxLevel=3, Rule="B", Topology="Classic"),
+    # The same through Group Datasets: each rank's block is its piece with
+    # that ghost layer, whose cells (marked as duplicates) must not be
+    # contoured twice (until the thirty-third session they were).
+    "group-mc": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0, input="group",
+                     same_as="mc-no-normals"),
     "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
     # On vtkSMPTools tasks: the serial run of "refined", bit for bit.
     "refined-smp": dict(Epsilon=0.01, MaxLevel=5, Rule="A1", UseSMPTools=1, same_as="refined"),
@@ -184,6 +192,7 @@ def main():
                                              Script=OWN_SPLIT_SOURCE,
                                              ScriptRequestInformation=OWN_SPLIT_INFORMATION),
                       OWN_SPLIT_ISOVALUES),
+        "group": (pvs.GroupDatasets(Input=[wavelet]), ISOVALUES),
     }
     results = {}
     failed = 0
@@ -201,6 +210,9 @@ def main():
             NumberOfThreads=1,
             **props,
         )
+        if input_name == "group":
+            # The blocks' triangles as one polydata per rank.
+            contour = pvs.ExtractSurface(Input=pvs.MergeBlocks(Input=contour))
         if ghosts:
             contour = pvs.ProgrammableFilter(
                 Input=contour,
