@@ -445,6 +445,7 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   this->ContourPiece = 0;
   this->ContourPieces = 1;
   this->ContourSplitMode = vtkExtentTranslator::BLOCK_MODE;
+  this->WholeInputShare = WHOLE_INPUT_AS_ASKED;
 
   // By default process active point scalars.
   this->SetInputArrayToProcess(
@@ -717,6 +718,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");
       return 1;
+    }
+    if (!ownSplit && this->ContourPieces > 1 && std::equal(dataExtent, dataExtent + 6, whole))
+    {
+      if (this->WholeInputShare == WHOLE_INPUT_NONE)
+      {
+        vtkDebugMacro(<< "Another piece contours the whole volume");
+        return 1;
+      }
+      if (this->WholeInputShare == WHOLE_INPUT_ALL)
+      {
+        std::copy(dataExtent, dataExtent + 6, piece);
+      }
     }
     for (int i = 0; i < 3; ++i)
     {

@@ -593,6 +593,23 @@ protected:
   int ContourPieces;
   int ContourSplitMode;
 
+  // What a piece of a distributed run (ContourPieces > 1) does with an
+  // input that is the whole volume with no cell marked as a duplicate: cut
+  // it as asked (every piece holds the whole volume: SetInputData, a
+  // source that ignores pieces; the default), contour all of it (this piece
+  // alone holds the volume, the others nothing: a reader that reads on the
+  // first process only), or nothing (another piece holding it contours
+  // it). A plain VTK filter cannot tell the cases apart; a subclass that
+  // can (ParaView's, asking the other processes) sets it before
+  // RequestData() of this class runs.
+  enum WholeInputShares
+  {
+    WHOLE_INPUT_AS_ASKED = 0,
+    WHOLE_INPUT_ALL = 1,
+    WHOLE_INPUT_NONE = 2
+  };
+  int WholeInputShare;
+
 private:
   vtkPreciseMarchingCubes(const vtkPreciseMarchingCubes&) = delete;
   void operator=(const vtkPreciseMarchingCubes&) = delete;

@@ -19,6 +19,7 @@ does) must give the serial surface too. Prints "ok ..." or "FAIL ..." per
 configuration (pvbatch's exit status does not tell: a script ending early
 under MPI aborts the other ranks, so the script always runs to its end).
 """
+import os
 import sys
 
 import numpy as np
@@ -37,7 +38,10 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 # levels, so only runs that need none, without normals) or "group" (the
 # Wavelet as the block of a multiblock, Group Datasets: contoured block by
 # block, with the ghost layer the shared Wavelet holds; no ghost level is
-# asked for, so only runs that need none).
+# asked for, so only runs that need none) or "legacy" (the Wavelet saved as
+# a legacy .vtk file by the serial run: ParaView's legacy reader gives the
+# whole volume to the first rank and nothing to the others, so the first
+# rank must contour all of it, "one_rank").
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     # Normals read the samples beyond the piece's faces (one ghost level);
@@ -59,6 +63,8 @@ CONFIGS = {
     # contoured twice (until the thirty-third session they were).
     "group-mc": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0, input="group",
                      same_as="mc-no-normals"),
+    "legacy-mc": dict(Epsilon=0.0, MaxLevel=0, input="legacy", one_rank=True),
+    "legacy-refined": dict(Epsilon=0.01, MaxLevel=5, input="legacy", one_rank=True),
     "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
     # On vtkSMPTools tasks: the serial run of "refined", bit for bit.
     "refined-smp": dict(Epsilon=0.01, MaxLevel=5, Rule="A1", UseSMPTools=1, same_as="refined"),
@@ -183,6 +189,9 @@ def main():
     print(f"ranks: {ranks}")
 
     wavelet = pvs.Wavelet(WholeExtent=EXTENT)
+    legacy = os.path.join(os.path.dirname(os.path.abspath(out)), "wavelet-legacy.vtk")
+    if reference is None:
+        pvs.SaveData(legacy, proxy=wavelet)
     inputs = {
         "wavelet": (wavelet, ISOVALUES),
         "attributes": (pvs.Calculator(Input=wavelet, ResultArrayName=AUX,
@@ -193,6 +202,7 @@ def main():
                                              ScriptRequestInformation=OWN_SPLIT_INFORMATION),
                       OWN_SPLIT_ISOVALUES),
         "group": (pvs.GroupDatasets(Input=[wavelet]), ISOVALUES),
+        "legacy": (pvs.LegacyVTKReader(FileNames=[legacy]), ISOVALUES),
     }
     results = {}
     failed = 0
@@ -200,6 +210,7 @@ def main():
         props = dict(props)
         ghosts = props.pop("ghosts", False)
         same_as = props.pop("same_as", name)
+        one_rank = props.pop("one_rank", False)
         input_name = props.pop("input", "wavelet")
         source, isovalues = inputs[input_name]
         contour = pvs.PreciseContour(
@@ -243,7 +254,10 @@ def main():
             continue
         ref = reference[same_as]
         problems = []
-        if ranks > 1 and np.any(counts == 0):
+        if one_rank:
+            if ranks > 1 and np.count_nonzero(counts) != 1:
+                problems.append(f"triangles from {np.count_nonzero(counts)} ranks, not one")
+        elif ranks > 1 and np.any(counts == 0):
             problems.append("a rank produced no triangles (volume not split?)")
         arrays = point_arrays(poly)
         ref_arrays = reference[same_as + "-arrays"].tolist()
@@ -270,7 +284,7 @@ def main():
         ref_unique = len(np.unique(ref.reshape(-1, ref.shape[1] // 3)[:, :3], axis=0))
         if len(unique) != ref_unique:
             problems.append(f"{len(unique)} distinct vertices, serial run {ref_unique}")
-        if ranks > 1 and shared == 0:
+        if ranks > 1 and shared == 0 and not one_rank:
             problems.append("no vertex shared between ranks")
         line += f", {shared} vertices shared between ranks"
         if problems:

@@ -14,9 +14,61 @@
 =========================================================================*/
 #include "vtkPVPreciseMarchingCubes.h"
 
+#include "vtkAlgorithmOutput.h"
+#include "vtkCommunicator.h"
+#include "vtkImageData.h"
+#include "vtkInformation.h"
+#include "vtkInformationVector.h"
+#include "vtkMultiProcessController.h"
 #include "vtkObjectFactory.h"
+#include "vtkStreamingDemandDrivenPipeline.h"
+
+#include <algorithm>
 
 vtkStandardNewMacro(vtkPVPreciseMarchingCubes);
+
+//------------------------------------------------------------------------------
+int vtkPVPreciseMarchingCubes::RequestData(
+  vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  this->WholeInputShare = WHOLE_INPUT_AS_ASKED;
+  vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
+  const int processes = controller ? controller->GetNumberOfProcesses() : 1;
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  vtkAlgorithmOutput* connection = this->GetInputConnection(0, 0);
+  // The producer's own output: a composite dataset when the blocks are
+  // executed one by one (their number may differ between processes).
+  vtkDataObject* produced = connection && connection->GetProducer()
+    ? connection->GetProducer()->GetOutputDataObject(connection->GetIndex())
+    : nullptr;
+  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  if (processes > 1 && this->HasContourExtent && this->ContourPieces == processes &&
+    this->ContourPiece == controller->GetLocalProcessId() && inInfo && input &&
+    vtkImageData::SafeDownCast(produced) != nullptr &&
+    inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    int whole[6];
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    int extent[6];
+    input->GetExtent(extent);
+    const bool empty = input->GetNumberOfPoints() == 0;
+    const bool holdsWhole = !empty && std::equal(extent, extent + 6, whole);
+    const int rank = controller->GetLocalProcessId();
+    // Sums of the holders and of the empty pieces; the first holder.
+    int local[3] = { holdsWhole ? 1 : 0, empty ? 1 : 0, holdsWhole ? processes - rank : 0 };
+    int global[3] = { 0, 0, 0 };
+    controller->AllReduce(local, global, 2, vtkCommunicator::SUM_OP);
+    controller->AllReduce(local + 2, global + 2, 1, vtkCommunicator::MAX_OP);
+    if (global[0] >= 1 && global[1] >= 1 && global[0] + global[1] == processes && holdsWhole)
+    {
+      this->WholeInputShare =
+        processes - global[2] == rank ? WHOLE_INPUT_ALL : WHOLE_INPUT_NONE;
+    }
+  }
+  const int result = this->Superclass::RequestData(request, inputVector, outputVector);
+  this->WholeInputShare = WHOLE_INPUT_AS_ASKED;
+  return result;
+}
 
 //------------------------------------------------------------------------------
 void vtkPVPreciseMarchingCubes::SetMaxTrianglesSigned(vtkIdType count)

@@ -48,6 +48,18 @@ protected:
   vtkPVPreciseMarchingCubes() = default;
   ~vtkPVPreciseMarchingCubes() override = default;
 
+  /**
+   * In a distributed run, asks the other processes (the global controller)
+   * whether they hold the whole volume too before contouring: where the
+   * whole volume went to some of them only and the others got nothing (a
+   * reader that reads on the first process only, as the legacy VTK reader
+   * does), the first of its holders contours all of it instead of its
+   * piece (see vtkPreciseMarchingCubes::WholeInputShare). Every process
+   * of a ParaView pipeline executes it together; the exchange is skipped
+   * for a composite input, whose blocks execute one by one.
+   */
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
 private:
   vtkPVPreciseMarchingCubes(const vtkPVPreciseMarchingCubes&) = delete;
   void operator=(const vtkPVPreciseMarchingCubes&) = delete;
