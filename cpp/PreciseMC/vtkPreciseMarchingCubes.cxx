@@ -703,13 +703,15 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // the piece asked for, unless the input is not that either (split by
     // an upstream filter its own way, as Resample To Image does: then all
     // its cells).
-    // (A block of a composite input arrives as a whole volume of its own:
-    // one with cells marked as duplicates is a piece with its ghost layer,
-    // never a volume every piece holds.)
+    // A block of a composite input arrives as a whole volume of its own,
+    // asked for as the only piece (the pipeline executes the blocks one by
+    // one): one with cells marked as duplicates is a piece of a distributed
+    // run with its ghost layer. (With more pieces asked for, a whole input
+    // is one that every piece holds, and is cut as asked.)
     int piece[6];
     std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
     const bool ownSplit = std::equal(dataExtent, dataExtent + 6, whole)
-      ? HasDuplicateCells(input)
+      ? this->ContourPieces == 1 && HasDuplicateCells(input)
       : this->ContourPieces > 1 &&
         (input->GetCellGhostArray() != nullptr ||
           !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,

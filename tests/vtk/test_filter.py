@@ -849,12 +849,14 @@ def test_pieces_equal_the_serial_surface(name):
         assert np.array_equal(union, serial), f"{pieces} pieces"
 
 
-@pytest.mark.parametrize("kind", ["ghost-array", "blanked"])
+@pytest.mark.parametrize("kind", ["ghost-array", "blanked", "duplicate-corner"])
 def test_pieces_of_a_whole_volume_with_ghost_flags_cover_it_once(kind):
     # An image that every piece receives whole (SetInputData) but that
-    # carries a cell ghost array: all zeros, or the HIDDENCELL flag of a
-    # blanked cell of a vtkUniformGrid. Nothing is a duplicate, so the
-    # pieces must still split the volume as asked (each used to contour
+    # carries a cell ghost array: all zeros, the HIDDENCELL flag of a
+    # blanked cell of a vtkUniformGrid, or a corner cell marked as a
+    # DUPLICATECELL (the mark that a block of a composite input, which also
+    # arrives as a whole volume of its own, carries on its ghost layer).
+    # The pieces must still split the volume as asked (each used to contour
     # all of it: the union held the surface once per piece).
     from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
     from vtkmodules.vtkCommonDataModel import vtkUniformGrid
@@ -868,11 +870,13 @@ def test_pieces_of_a_whole_volume_with_ghost_flags_cover_it_once(kind):
     scalars = numpy_to_vtk(values, deep=1)
     scalars.SetName("s")
     image.GetPointData().SetScalars(scalars)
-    if kind == "ghost-array":
+    if kind != "blanked":
         ghosts = vtkUnsignedCharArray()
         ghosts.SetName("vtkGhostType")
         ghosts.SetNumberOfTuples((n - 1) ** 3)
         ghosts.Fill(0)
+        if kind == "duplicate-corner":
+            ghosts.SetValue(0, 1)  # vtkDataSetAttributes.DUPLICATECELL
         image.GetCellData().AddArray(ghosts)
     else:
         image.BlankCell(0)  # a corner cell, far from the surface

@@ -14,7 +14,6 @@
 =========================================================================*/
 #include "vtkPVPreciseMarchingCubes.h"
 
-#include "vtkAlgorithmOutput.h"
 #include "vtkCommunicator.h"
 #include "vtkImageData.h"
 #include "vtkInformation.h"
@@ -35,16 +34,12 @@ int vtkPVPreciseMarchingCubes::RequestData(
   vtkMultiProcessController* controller = vtkMultiProcessController::GetGlobalController();
   const int processes = controller ? controller->GetNumberOfProcesses() : 1;
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  vtkAlgorithmOutput* connection = this->GetInputConnection(0, 0);
-  // The producer's own output: a composite dataset when the blocks are
-  // executed one by one (their number may differ between processes).
-  vtkDataObject* produced = connection && connection->GetProducer()
-    ? connection->GetProducer()->GetOutputDataObject(connection->GetIndex())
-    : nullptr;
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  // Never for the blocks of a composite input, whose number may differ
+  // between processes: the pipeline executes them one by one, each asked
+  // for as the only piece.
   if (processes > 1 && this->HasContourExtent && this->ContourPieces == processes &&
     this->ContourPiece == controller->GetLocalProcessId() && inInfo && input &&
-    vtkImageData::SafeDownCast(produced) != nullptr &&
     inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
