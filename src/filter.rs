@@ -73,7 +73,7 @@ fn lerp(a: f64, b: f64, t: f64) -> f64 {
 ///
 /// ```
 /// let c = [0.0, 1.0, 2.0, 1.0, 1.0, 2.0, 3.0, 2.0]; // x + y + z
-/// let v = precisemc::filter::trilinear_value(&c, glam::DVec3::new(0.25, 0.5, 0.5));
+/// let v = precisemc::filter::trilinear_value(&c, precisemc::glam::DVec3::new(0.25, 0.5, 0.5));
 /// assert!((v - 1.25).abs() < 1e-15);
 /// ```
 #[inline]
@@ -191,7 +191,7 @@ impl<T: Scalar> ReconstructionFilter for Trilinear<'_, T> {
 /// which leaves the polynomial's values unchanged.
 ///
 /// ```
-/// use glam::DVec3;
+/// use precisemc::glam::DVec3;
 /// use precisemc::filter::{trilinear_gradient, trilinear_line_cubic, trilinear_value};
 /// let c = [0.3, -1.0, 2.0, 0.5, 1.5, -0.2, 0.7, 1.1];
 /// let (p, d) = (DVec3::new(0.2, 0.6, 0.3), DVec3::new(0.48, -0.6, 0.64));

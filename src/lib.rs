@@ -74,6 +74,10 @@ mod subcells;
 mod test_rng;
 
 pub use error::Error;
+/// The vector crate of the public signatures that take points
+/// (`glam::DVec3`, in local cell coordinates), re-exported so that callers
+/// use the same version: `precisemc::glam::DVec3`.
+pub use glam;
 pub use executor::{Executor, SerialExecutor};
 pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};

@@ -199,15 +199,27 @@ impl Loops {
     }
 }
 
-/// The loops of each sign pattern and face decisions found so far, packed
-/// (0: not yet). They depend on nothing else, and finding them is a good
-/// part of an ambiguous cell's cost; filled as cells meet them (racing
-/// writers store the same word), 128 KiB in all.
+/// The loops of each sign pattern and its faces' decisions found so far,
+/// packed (0: not yet). With the decisions of [`face_decisions`] they
+/// depend on nothing else (a face is ambiguous or not by the sign pattern,
+/// so one bit a face, "joins inside", tells them apart), and finding them is
+/// a good part of an ambiguous cell's cost; filled as cells meet them
+/// (racing writers store the same word), 128 KiB in all.
 static LOOPS_SEEN: [AtomicU64; 1 << 14] = [const { AtomicU64::new(0) }; 1 << 14];
 
 /// Boundary loops of the cell's isosurface, as cyclic lists of edges,
-/// oriented like `vtkMarchingCubes`'s triangles.
+/// oriented like `vtkMarchingCubes`'s triangles, for any face decisions
+/// (`None`: the face's segments join inside; see [`face_decisions`]).
 pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
+    find_loops(f, decisions)
+}
+
+/// The face decisions of the cell ([`face_decisions`]) and its [`loops`],
+/// remembered per sign pattern and decisions (`LOOPS_SEEN`). Only these
+/// decisions are remembered: others (the public [`loops`] takes any) would
+/// share a key with a different answer.
+fn decided_loops(f: &[f64; 8]) -> ([Option<bool>; 6], Loops) {
+    let decisions = face_decisions(f);
     let mut key = super::case_index(f) as usize;
     for (k, d) in decisions.iter().enumerate() {
         if *d == Some(true) {
@@ -216,11 +228,11 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
     }
     let known = LOOPS_SEEN[key].load(Ordering::Relaxed);
     if known != 0 {
-        return Loops::unpack(known);
+        return (decisions, Loops::unpack(known));
     }
-    let found = find_loops(f, decisions);
+    let found = find_loops(f, &decisions);
     LOOPS_SEEN[key].store(found.pack(), Ordering::Relaxed);
-    found
+    (decisions, found)
 }
 
 /// [`loops`] from scratch.
@@ -460,8 +472,7 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
     if !f.iter().all(|v| v.is_finite()) {
         return;
     }
-    let decisions = face_decisions(f);
-    let loops = loops(f, &decisions);
+    let (decisions, loops) = decided_loops(f);
     match loops.len() {
         0 => return,
         // One loop is one disk, whatever the regions.
@@ -828,8 +839,12 @@ mod tests {
                 let fresh = find_loops(&f, &d);
                 assert!(!fresh.is_empty());
                 assert!(same(&Loops::unpack(fresh.pack()), &fresh));
-                assert!(same(&loops(&f, &d), &fresh), "case {case}");
-                assert!(same(&loops(&f, &d), &fresh), "case {case}, again");
+                // The public function with other decisions (every face
+                // joined inside) must not change what is remembered.
+                let _ = loops(&f, &[None; 6]);
+                assert!(same(&decided_loops(&f).1, &fresh), "case {case}");
+                let _ = loops(&f, &[Some(false); 6]);
+                assert!(same(&decided_loops(&f).1, &fresh), "case {case}, again");
                 loops_seen += fresh.len();
             }
         }
