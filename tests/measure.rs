@@ -539,3 +539,34 @@ fn degenerate_triangles_have_a_plain_mean() {
     let w = measure(&vol, iso, &[a, b, c], &[[0, 1, 2]], &tight()).unwrap();
     assert!(w.mean > 0.0 && w.mean < w.max, "{w:?}");
 }
+
+/// With no relative tolerance and a tight absolute one, the search next
+/// to a curved sheet of `S_K` grew without bound (gigabytes, then an
+/// allocation failure, for one triangle of the tube): it now stops after
+/// `MAX_SEARCH_BOXES` boxes with an upper bound, never below the certified
+/// distance and close to it.
+#[test]
+fn a_tight_absolute_tolerance_stays_bounded() {
+    let tube = precisemc::samples::tube(9);
+    let vol = tube.volume();
+    let points = [[1.0, 1.0, 1.0], [7.0, 1.0, 1.0], [1.0, 7.0, 7.0]];
+    let tris = [[0u64, 1, 2]];
+    let certified = measure(&vol, tube.isovalue, &points, &tris, &tight()).unwrap();
+    let tight_absolute = MeasureOptions {
+        tolerance: 1e-8,
+        relative_tolerance: 0.0,
+        threads: 1,
+        ..MeasureOptions::default()
+    };
+    let start = std::time::Instant::now();
+    let bounded = measure(&vol, tube.isovalue, &points, &tris, &tight_absolute).unwrap();
+    // Far inside the old behaviour (minutes and gigabytes), loosely enough
+    // for a loaded machine and a debug build.
+    assert!(start.elapsed().as_secs() < 120, "{:?}", start.elapsed());
+    assert_eq!(bounded.samples, certified.samples);
+    assert_eq!(bounded.unresolved, 0);
+    let gap = 1e-4 * certified.max + 1e-7;
+    assert!(bounded.max >= certified.max - gap, "{bounded:?} vs {certified:?}");
+    assert!(bounded.max <= certified.max * 1.01 + 1e-6, "{bounded:?} vs {certified:?}");
+    assert!((bounded.mean - certified.mean).abs() <= 0.01 * certified.mean + 1e-6);
+}
