@@ -74,12 +74,12 @@ mod subcells;
 mod test_rng;
 
 pub use error::Error;
+pub use executor::{Executor, SerialExecutor};
+pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THREADS};
 /// The vector crate of the public signatures that take points
 /// (`glam::DVec3`, in local cell coordinates), re-exported so that callers
 /// use the same version: `precisemc::glam::DVec3`.
 pub use glam;
-pub use executor::{Executor, SerialExecutor};
-pub use extract::{extract, extract_with_executor, extract_with_progress, MAX_THREADS};
 pub use mesh::{Mesh, Stats};
 pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
 pub use recycle::{release_retained_memory, retained_bytes, RETAIN_LIMIT};

@@ -566,7 +566,13 @@ fn a_tight_absolute_tolerance_stays_bounded() {
     assert_eq!(bounded.samples, certified.samples);
     assert_eq!(bounded.unresolved, 0);
     let gap = 1e-4 * certified.max + 1e-7;
-    assert!(bounded.max >= certified.max - gap, "{bounded:?} vs {certified:?}");
-    assert!(bounded.max <= certified.max * 1.01 + 1e-6, "{bounded:?} vs {certified:?}");
+    assert!(
+        bounded.max >= certified.max - gap,
+        "{bounded:?} vs {certified:?}"
+    );
+    assert!(
+        bounded.max <= certified.max * 1.01 + 1e-6,
+        "{bounded:?} vs {certified:?}"
+    );
     assert!((bounded.mean - certified.mean).abs() <= 0.01 * certified.mean + 1e-6);
 }
