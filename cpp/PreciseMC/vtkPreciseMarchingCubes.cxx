@@ -696,21 +696,21 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
     }
-    // A distributed piece's own cells: the piece asked for when the input
-    // is the whole volume (every piece then holds all of it, ghost array
-    // or not: an image with blanked cells, or given with SetInputData);
-    // else those its ghost array does not mark as duplicates; without one,
-    // the piece asked for, unless the input is not that either (split by
-    // an upstream filter its own way, as Resample To Image does: then all
-    // its cells).
-    // A block of a composite input arrives as a whole volume of its own,
-    // asked for as the only piece (the pipeline executes the blocks one by
-    // one): one with cells marked as duplicates is a piece of a distributed
-    // run with its ghost layer. (With more pieces asked for, a whole input
-    // is one that every piece holds, and is cut as asked.)
+    // A distributed piece's own cells. An input that is the whole volume
+    // is, with more pieces asked for, one that every piece holds (ghost
+    // array or not: an image with blanked cells, or given with
+    // SetInputData): cut as asked, unless WholeInputShare says this piece
+    // alone holds it or another one does. Asked for as the only piece, it
+    // may be a block of a composite input (the pipeline executes blocks one
+    // by one, each a whole volume of its own): cells marked as duplicates
+    // are then another piece's ghost layer. Any other input: the cells its
+    // ghost array does not mark as duplicates; without one, the piece asked
+    // for, unless the input is not that either (split by an upstream filter
+    // its own way, as Resample To Image does: then all its cells).
     int piece[6];
     std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
-    const bool ownSplit = std::equal(dataExtent, dataExtent + 6, whole)
+    const bool wholeInput = std::equal(dataExtent, dataExtent + 6, whole);
+    const bool ownSplit = wholeInput
       ? this->ContourPieces == 1 && HasDuplicateCells(input)
       : this->ContourPieces > 1 &&
         (input->GetCellGhostArray() != nullptr ||
@@ -721,7 +721,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");
       return 1;
     }
-    if (!ownSplit && this->ContourPieces > 1 && std::equal(dataExtent, dataExtent + 6, whole))
+    if (wholeInput && this->ContourPieces > 1)
     {
       if (this->WholeInputShare == WHOLE_INPUT_NONE)
       {
