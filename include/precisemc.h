@@ -539,7 +539,12 @@ extern "C" {
 /**
  * Releases an array obtained from `pmc_mesh_take_triangles`. `NULL` is
  * accepted and ignored, and so is an address this library did not hand
- * out (or already released). Thread-safe. Its signature is that of a C
+ * out. Releasing an array twice is the caller's error, which is caught
+ * only while no later array was handed out at that address: released
+ * arrays are kept for the next extraction, so the next
+ * `pmc_mesh_take_triangles` may return the same address, and a late
+ * second release would then free that new array under its owner.
+ * Thread-safe. Its signature is that of a C
  * `free`, so that it can be given as the free function of an array that
  * adopts the buffer (VTK: `SetArray(..., VTK_DATA_ARRAY_USER_DEFINED)`
  * then `SetArrayFreeFunction(pmc_buffer_free)`).
@@ -644,7 +649,8 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * id out of range,
  * or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
- * made or the worker threads cannot be started. Uses all cores; the
+ * made. Uses all cores (as many as can be started: the calling thread
+ * alone where a limit on threads leaves none); the
  * result does not depend on their number.
  *
  * # Safety

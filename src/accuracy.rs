@@ -180,19 +180,38 @@ pub fn measure(
             "points must lie within 1e60 cells of the volume (MAX_MEASURE_REACH)",
         ));
     }
+    let on_caller = || {
+        crate::volume::with_grid!(volume, |grid| measure_grid(
+            grid, isovalue, &local, triangles, options, false
+        ))
+    };
+    if threads == 1 {
+        return Ok(on_caller());
+    }
     // A scoped pool, as the extraction's: its threads are joined before
     // the call returns, so no thread outlives it (a host may unload the
     // library right after).
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build_scoped(
-            |thread| thread.run(),
-            |pool| {
-                crate::volume::with_grid!(volume, |grid| pool
-                    .install(|| measure_grid(grid, isovalue, &local, triangles, options)))
-            },
-        )
-        .map_err(|e| Error::ThreadPool(e.to_string()))
+    #[cfg(test)]
+    let refused = crate::extract::POOL_FAILS.with(|f| f.get());
+    #[cfg(not(test))]
+    let refused = false;
+    let pooled = if refused {
+        None
+    } else {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_scoped(
+                |thread| thread.run(),
+                |pool| {
+                    crate::volume::with_grid!(volume, |grid| pool
+                        .install(|| measure_grid(grid, isovalue, &local, triangles, options, true)))
+                },
+            )
+            .ok()
+    };
+    // Where the pool's threads could not all start (a limit on threads),
+    // the calling thread measures alone: the result is the same.
+    Ok(pooled.unwrap_or_else(on_caller))
 }
 
 /// Per-triangle partial sums, combined in triangle order (deterministic).
@@ -215,50 +234,52 @@ fn measure_grid<T: Scalar>(
     points: &[DVec3],
     triangles: &[[u64; 3]],
     options: &MeasureOptions,
+    parallel: bool,
 ) -> Distance {
     let n = options.density as usize;
     let per_tri = (n + 1) * (n + 2) / 2;
     // Fixed-size chunks summed in order: the result does not depend on
     // the thread count.
-    let sums: Vec<Sums> = triangles
-        .par_chunks(256)
-        .map(|chunk| {
-            let mut s = Sums::default();
-            for t in chunk {
-                let [a, b, c] = t.map(|v| points[v as usize]);
-                let area = 0.5 * (b - a).cross(c - a).length();
-                let w = area / per_tri as f64;
-                let mut resolved = 0;
-                for i in 0..=n {
-                    for j in 0..=n - i {
-                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                        let p = a + (b - a) * u + (c - a) * v;
-                        match distance(&grid, iso, p, options.tolerance, options.relative_tolerance)
-                        {
-                            Some(d) => {
-                                s.max = s.max.max(d);
-                                s.weighted += w * d;
-                                s.weighted_sq += w * d * d;
-                                s.plain += d;
-                                s.plain_sq += d * d;
-                                s.samples += 1;
-                                resolved += 1;
-                            }
-                            None => s.unresolved += 1,
+    let sum_chunk = |chunk: &[[u64; 3]]| {
+        let mut s = Sums::default();
+        for t in chunk {
+            let [a, b, c] = t.map(|v| points[v as usize]);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            let w = area / per_tri as f64;
+            let mut resolved = 0;
+            for i in 0..=n {
+                for j in 0..=n - i {
+                    let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                    let p = a + (b - a) * u + (c - a) * v;
+                    match distance(&grid, iso, p, options.tolerance, options.relative_tolerance) {
+                        Some(d) => {
+                            s.max = s.max.max(d);
+                            s.weighted += w * d;
+                            s.weighted_sq += w * d * d;
+                            s.plain += d;
+                            s.plain_sq += d * d;
+                            s.samples += 1;
+                            resolved += 1;
                         }
+                        None => s.unresolved += 1,
                     }
                 }
-                // The weight of the samples measured (all of them, nearly
-                // always: then the area itself).
-                s.weight += if resolved == per_tri {
-                    area
-                } else {
-                    w * resolved as f64
-                };
             }
-            s
-        })
-        .collect();
+            // The weight of the samples measured (all of them, nearly
+            // always: then the area itself).
+            s.weight += if resolved == per_tri {
+                area
+            } else {
+                w * resolved as f64
+            };
+        }
+        s
+    };
+    let sums: Vec<Sums> = if parallel {
+        triangles.par_chunks(256).map(sum_chunk).collect()
+    } else {
+        triangles.chunks(256).map(sum_chunk).collect()
+    };
     let mut total = Sums::default();
     for s in sums {
         total.max = total.max.max(s.max);

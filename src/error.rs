@@ -116,7 +116,10 @@ pub enum Error {
         /// Tasks handed to it.
         total: usize,
     },
-    /// A worker thread pool could not be created.
+    /// A worker thread pool could not be created. No longer returned:
+    /// where worker threads cannot start (a limit on threads), the
+    /// extraction and the measure run on the threads that did, the calling
+    /// thread at least. Kept so that matches on it still compile.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),
     /// A cell or point outside the volume given to

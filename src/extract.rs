@@ -36,8 +36,8 @@ use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
 use crate::recycle;
 use crate::refine::{
-    faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected, vector_area,
-    Counters, EdgeCache, Refinable, Refiner, Tri,
+    edge_key, faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected,
+    vector_area, Counters, EdgeCache, Refinable, Refiner, Tri,
 };
 use crate::subcells;
 use crate::tables::cube::{on_one_face, CORNERS, CROSSED_EDGES, EDGES, EDGE_AXIS};
@@ -499,10 +499,31 @@ fn run<T: Scalar>(
     }
     // A scoped pool: its threads are joined before the call returns, so no
     // thread outlives it (a host may unload the library right after).
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build_scoped(|thread| thread.run(), |pool| run_on(Exec::Pool(pool)))
-        .map_err(|e| Error::ThreadPool(e.to_string()))?
+    #[cfg(test)]
+    let refused = POOL_FAILS.with(|f| f.get());
+    #[cfg(not(test))]
+    let refused = false;
+    let pooled = if refused {
+        None
+    } else {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build_scoped(|thread| thread.run(), |pool| run_on(Exec::Pool(pool)))
+            .ok()
+    };
+    match pooled {
+        Some(result) => result,
+        // Not all of the pool's threads could start (a process or container
+        // limit on threads): the helpers run the steps on as many as start,
+        // the calling thread at least. The output is the same.
+        None => with_helpers(threads, |h| run_on(Exec::External(h))),
+    }
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Makes this thread's extractions find the pool unbuildable (tests).
+    pub(crate) static POOL_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// One extraction on `exec`: Marching Cubes on `grid`'s samples, then
@@ -844,7 +865,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut tested = Vec::with_capacity(16);
     let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
-    let mut uses: Vec<((u32, u32), u8)> = Vec::with_capacity(48);
+    let mut uses: Vec<(u64, u8)> = Vec::with_capacity(48);
     let mut edges = FlatMap::<u32>::default();
     let mut seen = FlatMap::<()>::default();
     let mut count_leaves: Vec<([u32; 3], [DVec3; 3], u8)> = Vec::new();
@@ -1221,11 +1242,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 uses.clear();
                 for t in &kept {
                     for e in 0..3 {
-                        let (a, b) = (t[e], t[(e + 1) % 3]);
-                        let pair = if a < b { (a, b) } else { (b, a) };
-                        match uses.iter_mut().find(|u| u.0 == pair) {
+                        let key = edge_key(t[e], t[(e + 1) % 3]);
+                        match uses.iter_mut().find(|u| u.0 == key) {
                             Some(u) => u.1 += 1,
-                            None => uses.push((pair, 1)),
+                            None => uses.push((key, 1)),
                         }
                     }
                 }
@@ -1308,6 +1328,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         } else {
                             f64::INFINITY
                         },
+                        cancel: sh.cancel,
+                        polls: 0,
                         refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
@@ -1327,9 +1349,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
                         let mut fixed = [0u8; 3];
                         for e in 0..3 {
-                            let (a, b) = (t[e], t[(e + 1) % 3]);
-                            let pair = if a < b { (a, b) } else { (b, a) };
-                            let boundary = uses.iter().any(|u| u.0 == pair && u.1 == 1);
+                            let key = edge_key(t[e], t[(e + 1) % 3]);
+                            let boundary = uses.iter().any(|u| u.0 == key && u.1 == 1);
                             if boundary {
                                 fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
                             }
@@ -1360,7 +1381,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             );
                             if !within_budget {
                                 // More leaves than the cap: the level does
-                                // not fit, whatever the rest counts.
+                                // not fit, whatever the rest counts (or
+                                // the call was stopped, which wins).
                                 sh.over_cap.store(true, Ordering::Relaxed);
                                 break 'layers;
                             }
@@ -1411,8 +1433,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                 },
                             );
                             if !within_budget {
-                                // Over the cap: this pass's output is
-                                // dropped, stop here.
+                                // Over the cap (or stopped): this pass's
+                                // output is dropped, stop here.
                                 sh.over_cap.store(true, Ordering::Relaxed);
                                 break 'layers;
                             }
@@ -1972,6 +1994,43 @@ mod tests {
         assert!(surface_guess(dims, dims[2]) < 2 * m.triangles.len());
         assert_eq!(surface_guess([1 << 20; 3], 1 << 20), 1 << 22);
         assert_eq!(surface_guess([5, 5, 0], 0), 0);
+    }
+
+    #[test]
+    fn threads_that_cannot_start_leave_the_output_unchanged() {
+        // A limit on threads (a container's pids limit) makes the pool's
+        // build fail: the extraction and the measure then run on the
+        // threads that start instead of failing, with the same result.
+        let atoms = crate::samples::atoms(24);
+        let v = atoms.volume();
+        let o = Options {
+            epsilon: 0.01,
+            threads: 3,
+            ..Options::default()
+        };
+        let measure = |m: &Mesh| {
+            let mo = crate::accuracy::MeasureOptions {
+                threads: 3,
+                ..Default::default()
+            };
+            crate::accuracy::measure(&v, atoms.isovalue, &m.index_points, &m.triangles, &mo)
+                .unwrap()
+        };
+        let pooled = extract(&v, atoms.isovalue, &o).unwrap();
+        let pooled_distance = measure(&pooled);
+        POOL_FAILS.with(|f| f.set(true));
+        let fallback = extract(&v, atoms.isovalue, &o);
+        let fallback_distance = fallback.as_ref().ok().map(measure);
+        POOL_FAILS.with(|f| f.set(false));
+        let fallback = fallback.unwrap();
+        assert!(pooled.stats.output_triangles > pooled.stats.mc_triangles);
+        assert_eq!(pooled.points, fallback.points);
+        assert_eq!(pooled.triangles, fallback.triangles);
+        assert_eq!(pooled.normals, fallback.normals);
+        assert_eq!(
+            format!("{pooled_distance:?}"),
+            format!("{:?}", fallback_distance.unwrap())
+        );
     }
 
     #[test]

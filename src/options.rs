@@ -96,7 +96,9 @@ pub struct Options {
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
     /// Plain Marching Cubes (no refinement) of a volume under 524 288
     /// cells runs on the calling thread alone: starting a helper thread
-    /// costs more than it saves there.
+    /// costs more than it saves there. Where threads cannot be started
+    /// (a limit on threads), the call runs on those that did start, the
+    /// calling thread at least.
     pub threads: usize,
     /// The filter refinement follows. Default [`Reconstruction::Trilinear`].
     pub reconstruction: Reconstruction,

@@ -18,6 +18,7 @@ use crate::flat_map::FlatMap;
 use crate::nearest::{nearest, nearest_within};
 use crate::options::Rule;
 use crate::project::{seems_far, test_from, Test};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Refinement settings and counters for one worker.
 pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
@@ -52,7 +53,16 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// [`crate::subcells::STALL_SAG`] of its length) counts in
     /// [`Counters::stalled_leaves`]; infinite to not look.
     pub stall_len2: f64,
+    /// The extraction's stop request, read every [`CANCEL_POLL`] nodes:
+    /// one cell at a high max level refines for seconds.
+    pub cancel: &'c AtomicBool,
+    /// Nodes visited since the stop request was last read.
+    pub polls: u32,
 }
+
+/// Nodes between two reads of [`Refiner::cancel`] (a few milliseconds of
+/// refinement at most).
+const CANCEL_POLL: u32 = 4096;
 
 /// Where a cell may be refined, and against which isovalue. Near a sample
 /// within rounding of the isovalue (but not on it), or a face saddle at
@@ -849,7 +859,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
     /// Refines `root`; `emit(tri)` receives output triangles in a fixed
     /// order, `vertex(p)` returns the id of a new point (local coordinates).
     /// Returns false, leaving the output partial, when `leaf_budget` ran
-    /// out.
+    /// out or the extraction was stopped ([`Refiner::cancel`]).
     pub fn run(
         &mut self,
         root: Tri,
@@ -871,6 +881,13 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         emit: &mut impl FnMut(&Tri),
         vertex: &mut impl FnMut(DVec3) -> u32,
     ) -> bool {
+        self.polls += 1;
+        if self.polls == CANCEL_POLL {
+            self.polls = 0;
+            if self.cancel.load(Ordering::Relaxed) {
+                return false;
+            }
+        }
         let lvl = t.level as usize;
         self.counters.nodes_per_level[lvl.min(15)] += 1;
         if t.level as u32 >= self.max_level {

@@ -30,7 +30,12 @@ pub(crate) fn hand_out(v: Vec<[u64; 3]>) -> *mut i64 {
 
 /// Releases an array obtained from `pmc_mesh_take_triangles`. `NULL` is
 /// accepted and ignored, and so is an address this library did not hand
-/// out (or already released). Thread-safe. Its signature is that of a C
+/// out. Releasing an array twice is the caller's error, which is caught
+/// only while no later array was handed out at that address: released
+/// arrays are kept for the next extraction, so the next
+/// `pmc_mesh_take_triangles` may return the same address, and a late
+/// second release would then free that new array under its owner.
+/// Thread-safe. Its signature is that of a C
 /// `free`, so that it can be given as the free function of an array that
 /// adopts the buffer (VTK: `SetArray(..., VTK_DATA_ARRAY_USER_DEFINED)`
 /// then `SetArrayFreeFunction(pmc_buffer_free)`).

@@ -55,7 +55,8 @@ pub struct pmc_distance {
 /// id out of range,
 /// or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
-/// made or the worker threads cannot be started. Uses all cores; the
+/// made. Uses all cores (as many as can be started: the calling thread
+/// alone where a limit on threads leaves none); the
 /// result does not depend on their number.
 ///
 /// # Safety

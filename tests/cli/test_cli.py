@@ -1146,6 +1146,37 @@ def output_piped_into_an_early_quitter_leaves_nothing_behind():
 
 
 @check
+def a_limit_on_threads_runs_on_the_threads_that_start():
+    """Under a limit on threads (RLIMIT_NPROC of an unprivileged user, as a
+    container's pids limit) the default thread count used to fail the
+    extraction ("out of memory: cannot start worker threads"): it now runs
+    on the threads that start, with the same surface and measure."""
+    runuser, prlimit = shutil.which("runuser"), shutil.which("prlimit")
+    if os.geteuid() != 0 or not runuser or not prlimit:
+        print("     (skipped: needs root, runuser and prlimit)")
+        return
+    probe = subprocess.run([runuser, "-u", "nobody", "--", TOOL, "--version"],
+                           capture_output=True, text=True, timeout=TIMEOUT)
+    if probe.returncode != 0:
+        print(f"     (skipped: user nobody cannot run {TOOL})")
+        return
+    args = ["--sample", "atoms", "--epsilon", "0.01", "--measure"]
+    free = ok(*args)
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    # Two tasks for nobody: the tool and one more thread at most.
+    limited = subprocess.run([runuser, "-u", "nobody", "--", prlimit, "--nproc=2:2", TOOL, *args],
+                             capture_output=True, text=True, env=environment, timeout=TIMEOUT)
+    expect(limited.returncode == 0,
+           f"exit status {limited.returncode}, stderr: {limited.stderr.strip()!r}")
+    for key in ("MC triangles", "output triangles"):
+        expect(table_value(limited.stdout, key) == table_value(free.stdout, key),
+               f"{key} differ under the limit")
+    expect(measured(limited.stdout, "S_K distance out") == measured(free.stdout, "S_K distance out"),
+           "the measured max distance differs under the limit")
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
