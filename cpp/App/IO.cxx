@@ -22,6 +22,7 @@
 #include "vtkOBJWriter.h"
 #include "vtkPLYWriter.h"
 #include "vtkPointData.h"
+#include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkSTLWriter.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
@@ -37,6 +38,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -740,6 +742,28 @@ void WriteSurface(vtkPolyData* surface, const std::string& path, const std::stri
     throw Error("unknown output format '" + path + "' (known: " + SurfaceExtensions + ")", 2);
   }
   writer->SetInputDataObject(0, surface);
+  // PLY and STL hold float coordinates: points the run keeps in double
+  // (far from the origin) are rounded there, or overflow float.
+  vtkPoints* points = surface->GetPoints();
+  if ((ext == ".ply" || ext == ".stl") && points && points->GetDataType() == VTK_DOUBLE &&
+    points->GetNumberOfPoints() > 0)
+  {
+    double bounds[6];
+    points->GetBounds(bounds);
+    for (double b : bounds)
+    {
+      if (!(std::fabs(b) <= std::numeric_limits<float>::max()))
+      {
+        throw Error("cannot write '" + path + "': " + ext.substr(1) +
+          " stores float coordinates and the surface lies beyond float's range (write .vtp or "
+          ".obj)");
+      }
+    }
+    std::cerr << "precisemc: warning: '" << path << "': " << ext.substr(1)
+              << " stores float coordinates, which round these points by more than the run's "
+                 "accuracy (.vtp and .obj keep double)"
+              << std::endl;
+  }
 
   TakeVTKErrors();
   writer->Update();

@@ -34,6 +34,7 @@
 #include <sstream>
 #include <thread>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace
@@ -403,6 +404,21 @@ int main(int argc, char* argv[])
       for (auto& w : written)
       {
         w.second = pmcapp::CanonicalPath(w.first);
+      }
+      // Nor may an output be the input file (or a link to it): a failed
+      // run would keep it, a run that works would replace it.
+      struct stat in;
+      if (!o.Input.empty() && stat(o.Input.c_str(), &in) == 0 && S_ISREG(in.st_mode))
+      {
+        for (const auto& w : written)
+        {
+          struct stat out;
+          if (stat(w.first.c_str(), &out) == 0 && out.st_dev == in.st_dev &&
+            out.st_ino == in.st_ino)
+          {
+            throw Error("'" + w.first + "' names the input file '" + o.Input + "'", 2);
+          }
+        }
       }
       for (size_t a = 0; a < written.size(); ++a)
       {

@@ -222,6 +222,15 @@ void AdviseHugePages(void* data, size_t bytes)
 // tasks too: it runs the first one and then, next to a For over the other
 // workers started from a helper thread, takes the others from a shared
 // counter with them.
+// Extent index `i + d`, held to int's range: an extent may reach INT_MAX,
+// and the extents it is compared with lie within that range anyway.
+int ShiftedIndex(int i, int d)
+{
+  const long long v = static_cast<long long>(i) + d;
+  return static_cast<int>(std::max<long long>(
+    std::numeric_limits<int>::min(), std::min<long long>(std::numeric_limits<int>::max(), v)));
+}
+
 void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
 {
   const int workers = vtkSMPTools::GetEstimatedNumberOfThreads();
@@ -747,10 +756,10 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       extent[2 * i + 1] = std::min(dataExtent[2 * i + 1], piece[2 * i + 1]);
       sampleExtent[2 * i] = global
         ? dataExtent[2 * i]
-        : std::max(dataExtent[2 * i], extent[2 * i] - ghostSamples);
+        : std::max(dataExtent[2 * i], ShiftedIndex(extent[2 * i], -ghostSamples));
       sampleExtent[2 * i + 1] = global
         ? dataExtent[2 * i + 1]
-        : std::min(dataExtent[2 * i + 1], extent[2 * i + 1] + ghostSamples);
+        : std::min(dataExtent[2 * i + 1], ShiftedIndex(extent[2 * i + 1], ghostSamples));
     }
     // Without the samples around the piece that the run needs (see
     // GhostSamples()), the surface next to a cut may differ from the
@@ -1476,7 +1485,10 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   }
   if (newNormals)
   {
-    outPD->SetNormals(newNormals);
+    // Added, then made active: SetNormals would drop an interpolated
+    // array of the input that was its active normals.
+    int idx = outPD->AddArray(newNormals);
+    outPD->SetActiveAttribute(idx, vtkDataSetAttributes::NORMALS);
   }
   if (levels)
   {
@@ -1577,8 +1589,8 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
       int grown[6];
       for (int i = 0; i < 3; ++i)
       {
-        grown[2 * i] = std::max(whole[2 * i], update[2 * i] - ghostSamples);
-        grown[2 * i + 1] = std::min(whole[2 * i + 1], update[2 * i + 1] + ghostSamples);
+        grown[2 * i] = std::max(whole[2 * i], ShiftedIndex(update[2 * i], -ghostSamples));
+        grown[2 * i + 1] = std::min(whole[2 * i + 1], ShiftedIndex(update[2 * i + 1], ghostSamples));
       }
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), grown, 6);
     }

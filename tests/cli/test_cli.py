@@ -915,6 +915,17 @@ def two_spellings_of_one_output():
         expect(f.read() == "OLD\n", "the picture was overwritten")
     expect_error(["--sample", "tube", "--compare", ""], "empty", status=2)
     expect_error(["--sample", "tube", "--distance="], "empty", status=2)
+    # Nor may an output be the input (it rewrote the input in place), also
+    # through a link to it.
+    vol = os.path.join(d, "in.vti")
+    ok("--sample", "tube", "-q", "--write-volume", vol)
+    with open(vol, "rb") as f:
+        before = f.read()
+    os.symlink(vol, os.path.join(d, "in-link.vti"))
+    for out in (vol, os.path.join(d, "in-link.vti"), os.path.join(d, "link", "in.vti")):
+        expect_error([vol, "-q", "--write-volume", out], "names the input file", status=2)
+    with open(vol, "rb") as f:
+        expect(f.read() == before, "the input was rewritten")
 
 
 @check
@@ -1102,6 +1113,20 @@ def far_from_the_origin_the_refinement_is_kept():
         expect(np.isfinite(pts).all(), f"{label}: non-finite points written")
         if label != "beyond float":  # (where doubles are a 1e23 apart)
             expect(out_max <= 0.0015, f"{label}: max distance {out_max} (refined to 0.001)")
+        # PLY and STL hold float coordinates: beyond float's range the
+        # write is refused (it wrote infinite points); far from the origin
+        # it warns that the points are rounded. Near it, nothing is said.
+        for ext in (".ply", ".stl"):
+            out = os.path.join(d, label.replace(" ", "-") + ext)
+            args = [path, "-v", "40", "--epsilon", "0.001", "-q", "-o", out]
+            if label == "beyond float":
+                expect_error(args, "beyond float's range", outputs=[out])
+                continue
+            r = run(*args)
+            expect(r.returncode == 0, f"{label} {ext}: exit status {r.returncode}: {r.stderr!r}")
+            warned = "stores float coordinates" in r.stderr
+            expect(warned == (label == "far"), f"{label} {ext}: stderr {r.stderr!r}")
+            expect(os.path.getsize(out) > 0, f"{label} {ext}: nothing written")
     expect(abs(results["far"][1] - results["near"][1]) <= 0.2 * results["near"][1] + 1e-5,
            f"mean distance far from the origin {results['far']} vs near it {results['near']}")
 

@@ -222,6 +222,58 @@ def test_interpolate_attributes_matches_probe_filter():
     assert np.all(vtk_to_numpy(scalars) == 150.0)
 
 
+@pytest.mark.parametrize("normals", [True, False])
+def test_interpolated_input_normals_are_kept_beside_the_computed_ones(normals):
+    # The input's active normals are interpolated like any other array;
+    # the filter's own normals, when computed, become the active ones
+    # without dropping them (SetNormals did), as vtkFlyingEdges3D does.
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
+
+    image = wavelet(6)
+    n = image.GetNumberOfPoints()
+    input_normals = numpy_to_vtk(np.tile([0.0, 0.0, 1.0], (n, 1)), deep=1)
+    input_normals.SetName("inNormals")
+    image.GetPointData().SetNormals(input_normals)
+    out = precise(image, [150.0], InterpolateAttributes=True, ComputeNormals=normals).GetOutput()
+    pd = out.GetPointData()
+    names = {pd.GetArrayName(a) for a in range(pd.GetNumberOfArrays())}
+    assert "inNormals" in names
+    assert np.allclose(vtk_to_numpy(pd.GetArray("inNormals")), [0.0, 0.0, 1.0])
+    fe = vtkFlyingEdges3D()
+    fe.SetInputData(image)
+    fe.SetValue(0, 150.0)
+    fe.SetComputeNormals(normals)
+    fe.SetInterpolateAttributes(True)
+    fe.Update()
+    fe_pd = fe.GetOutput().GetPointData()
+    assert names == {fe_pd.GetArrayName(a) for a in range(fe_pd.GetNumberOfArrays())}
+    if normals:
+        assert pd.GetNormals().GetName() == "Normals"
+        assert out.GetPointData().GetNormals().GetNumberOfTuples() == out.GetNumberOfPoints()
+
+
+@pytest.mark.parametrize("side", ["max", "min"])
+def test_extents_at_the_ends_of_int(side):
+    # An extent reaching INT_MAX (or INT_MIN): the ghost samples asked for
+    # around it were computed in int and overflowed, and the default run
+    # (normals on) failed with a misleading error about the scalars.
+    values = np.fromfunction(lambda k, j, i: np.sqrt((i - 5.5) ** 2 + (j - 5.5) ** 2 +
+                                                     (k - 5.5) ** 2), (12, 12, 12))
+    start = 2**31 - 12 if side == "max" else -(2**31)
+    image = image_from_array(values, extent_start=(start, 0, 0))
+    reference = precise(image_from_array(values), [4.0]).GetOutput()
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 4.0)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert not errors.errors and not errors.warnings, (errors.errors, errors.warnings)
+    out = f.GetOutput()
+    assert out.GetNumberOfCells() == reference.GetNumberOfCells() > 0
+    assert out.GetPointData().GetNormals().GetNumberOfTuples() == out.GetNumberOfPoints()
+
+
 @pytest.mark.parametrize("epsilon", [0.0, 0.01])
 def test_interpolated_attributes_take_only_the_corners_that_count(epsilon):
     # f = x on a 6 x 7 x 5 grid, contoured at 2.5: every point lies on an x
