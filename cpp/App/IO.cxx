@@ -361,6 +361,116 @@ vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
   return vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));
 }
 
+// The value of attribute `name` in the XML start tag `tag` ("" if absent).
+std::string XmlAttribute(const std::string& tag, const std::string& name)
+{
+  for (size_t at = tag.find(name + "=\""); at != std::string::npos;
+       at = tag.find(name + "=\"", at + 1))
+  {
+    // A whole attribute name, not the end of a longer one.
+    if (at > 0 && !std::isspace(static_cast<unsigned char>(tag[at - 1])))
+    {
+      continue;
+    }
+    const size_t start = at + name.size() + 2;
+    const size_t end = tag.find('"', start);
+    return end == std::string::npos ? "" : tag.substr(start, end - start);
+  }
+  return "";
+}
+
+// A .vti whose uncompressed raw appended data was cut short: VTK 9.1's
+// reader fills the missing values with zeros and reports nothing. Each
+// array's block (a byte count of header_type, then the bytes) must end
+// within the file, before its closing </AppendedData> if it has one.
+// (Compressed and base64 data are not looked at here.)
+void CheckAppendedRawData(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+  {
+    return;
+  }
+  // The XML part comes first and is small; the appended data follows the
+  // '_' after <AppendedData ...>.
+  std::string head(1 << 20, '\0');
+  in.read(&head[0], static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  const size_t appended = head.find("<AppendedData");
+  const size_t fileTag = head.find("<VTKFile");
+  if (appended == std::string::npos || fileTag == std::string::npos)
+  {
+    return;
+  }
+  const std::string vtkFile = head.substr(fileTag, head.find('>', fileTag) - fileTag);
+  const size_t appendedEnd = head.find('>', appended);
+  if (appendedEnd == std::string::npos ||
+    XmlAttribute(head.substr(appended, appendedEnd - appended), "encoding") != "raw" ||
+    !XmlAttribute(vtkFile, "compressor").empty())
+  {
+    return;
+  }
+  const size_t underscore = head.find('_', appendedEnd);
+  if (underscore == std::string::npos)
+  {
+    return;
+  }
+  const unsigned long long dataStart = underscore + 1;
+  const int headerSize = XmlAttribute(vtkFile, "header_type") == "UInt64" ? 8 : 4;
+  const bool bigEndian = XmlAttribute(vtkFile, "byte_order") == "BigEndian";
+  in.clear();
+  in.seekg(0, std::ios::end);
+  unsigned long long fileSize = static_cast<unsigned long long>(in.tellg());
+  // The data ends before the closing tag, when the file still has it.
+  {
+    const unsigned long long tailSize = std::min<unsigned long long>(fileSize, 4096);
+    std::string tail(static_cast<size_t>(tailSize), '\0');
+    in.seekg(static_cast<std::streamoff>(fileSize - tailSize));
+    in.read(&tail[0], static_cast<std::streamsize>(tailSize));
+    const size_t closing = tail.rfind("</AppendedData>");
+    if (in.gcount() == static_cast<std::streamsize>(tailSize) && closing != std::string::npos &&
+      fileSize - tailSize + closing >= dataStart)
+    {
+      fileSize = fileSize - tailSize + closing;
+    }
+    in.clear();
+  }
+  for (size_t at = head.find("<DataArray"); at != std::string::npos && at < appended;
+       at = head.find("<DataArray", at + 1))
+  {
+    const std::string tag = head.substr(at, head.find('>', at) - at);
+    const std::string offsetText = XmlAttribute(tag, "offset");
+    if (XmlAttribute(tag, "format") != "appended" || offsetText.empty())
+    {
+      continue;
+    }
+    char* end = nullptr;
+    const unsigned long long offset = std::strtoull(offsetText.c_str(), &end, 10);
+    const unsigned long long block = dataStart + offset;
+    unsigned char bytes[8] = { 0 };
+    bool complete = block + headerSize <= fileSize;
+    if (complete)
+    {
+      in.seekg(static_cast<std::streamoff>(block));
+      in.read(reinterpret_cast<char*>(bytes), headerSize);
+      unsigned long long count = 0;
+      for (int b = 0; b < headerSize; ++b)
+      {
+        count |= static_cast<unsigned long long>(bytes[bigEndian ? headerSize - 1 - b : b])
+          << (8 * b);
+      }
+      complete = in.gcount() == headerSize && count <= fileSize &&
+        block + headerSize + count <= fileSize;
+    }
+    if (!complete)
+    {
+      Unreadable(path,
+        "the appended data of array '" + XmlAttribute(tag, "Name") +
+          "' ends past the end of the file (is the file complete?)");
+    }
+  }
+}
+
 // The reader for a file, after a cheap look at its header when the reader
 // offers one, so that a file of another format is reported as such.
 vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
@@ -442,6 +552,10 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
       nrrdSizes = CheckNrrdHeader(path);
     }
     reader = ReaderFor(path, Extension(path));
+    if (Extension(path) == ".vti")
+    {
+      CheckAppendedRawData(path);
+    }
   }
   else
   {

@@ -444,6 +444,32 @@ def error_corrupt_inputs():
         with open(path, "wb") as f:
             f.write(data[: len(data) // 3])
         cases["truncated." + ext] = path
+    # Uncompressed raw appended data cut short (by 10 %, or just before
+    # the last data byte): VTK's reader fills the rest with zeros and says
+    # nothing.
+    dims, _, _, v = blob_volume()
+    for header in ("UInt32", "UInt64"):
+        w = vtkXMLImageDataWriter()
+        raw = os.path.join(d, f"raw-{header}.vti")
+        w.SetFileName(raw)
+        w.SetInputData(density_image(v, dims, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
+        w.SetDataModeToAppended()
+        w.EncodeAppendedDataOff()
+        w.SetCompressorTypeToNone()
+        if header == "UInt64":
+            w.SetHeaderTypeToUInt64()
+        w.Write()
+        ok(raw, "-v", "40", "-q")  # whole, it reads
+        with open(raw, "rb") as f:
+            data = f.read()
+        # The last data byte: before the blanks ahead of </AppendedData>.
+        last = len(data[: data.rindex(b"</AppendedData>")].rstrip()) - 1
+        for label, cut in (("10%", data[: len(data) * 9 // 10]),
+                           ("a byte", data[:last])):
+            path = os.path.join(d, f"raw-{header}-short-{label.replace('%', '')}.vti")
+            with open(path, "wb") as f:
+                f.write(cut)
+            cases[f"raw {header} short by {label}"] = path
     # Empty file.
     path = os.path.join(d, "empty.vti")
     open(path, "w").close()
