@@ -188,27 +188,10 @@ pub fn measure(
     if threads == 1 {
         return Ok(on_caller());
     }
-    // A scoped pool, as the extraction's: its threads are joined before
-    // the call returns, so no thread outlives it (a host may unload the
-    // library right after).
-    #[cfg(test)]
-    let refused = crate::extract::POOL_FAILS.with(|f| f.get());
-    #[cfg(not(test))]
-    let refused = false;
-    let pooled = if refused {
-        None
-    } else {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_scoped(
-                |thread| thread.run(),
-                |pool| {
-                    crate::volume::with_grid!(volume, |grid| pool
-                        .install(|| measure_grid(grid, isovalue, &local, triangles, options, true)))
-                },
-            )
-            .ok()
-    };
+    let pooled = crate::par::with_scoped_pool(threads, |pool| {
+        crate::volume::with_grid!(volume, |grid| pool
+            .install(|| measure_grid(grid, isovalue, &local, triangles, options, true)))
+    });
     // Where the pool's threads could not all start (a limit on threads),
     // the calling thread measures alone: the result is the same.
     Ok(pooled.unwrap_or_else(on_caller))

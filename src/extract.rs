@@ -497,33 +497,13 @@ fn run<T: Scalar>(
     if !refine && threads > 1 {
         return with_helpers(threads, |h| run_on(Exec::External(h)));
     }
-    // A scoped pool: its threads are joined before the call returns, so no
-    // thread outlives it (a host may unload the library right after).
-    #[cfg(test)]
-    let refused = POOL_FAILS.with(|f| f.get());
-    #[cfg(not(test))]
-    let refused = false;
-    let pooled = if refused {
-        None
-    } else {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_scoped(|thread| thread.run(), |pool| run_on(Exec::Pool(pool)))
-            .ok()
-    };
-    match pooled {
+    match crate::par::with_scoped_pool(threads, |pool| run_on(Exec::Pool(pool))) {
         Some(result) => result,
         // Not all of the pool's threads could start (a process or container
         // limit on threads): the helpers run the steps on as many as start,
         // the calling thread at least. The output is the same.
         None => with_helpers(threads, |h| run_on(Exec::External(h))),
     }
-}
-
-#[cfg(test)]
-thread_local! {
-    /// Makes this thread's extractions find the pool unbuildable (tests).
-    pub(crate) static POOL_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// One extraction on `exec`: Marching Cubes on `grid`'s samples, then
@@ -2018,10 +1998,10 @@ mod tests {
         };
         let pooled = extract(&v, atoms.isovalue, &o).unwrap();
         let pooled_distance = measure(&pooled);
-        POOL_FAILS.with(|f| f.set(true));
+        crate::par::POOL_FAILS.with(|f| f.set(true));
         let fallback = extract(&v, atoms.isovalue, &o);
         let fallback_distance = fallback.as_ref().ok().map(measure);
-        POOL_FAILS.with(|f| f.set(false));
+        crate::par::POOL_FAILS.with(|f| f.set(false));
         let fallback = fallback.unwrap();
         assert!(pooled.stats.output_triangles > pooled.stats.mc_triangles);
         assert_eq!(pooled.points, fallback.points);

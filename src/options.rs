@@ -32,7 +32,9 @@ pub enum Rule {
 }
 
 /// Which normals to compute for the output points. Unit vectors in
-/// float32; a component smaller than `f32::EPSILON` is written as 0 (it is
+/// float32, or `[0, 0, 0]` where the gradient they are made from vanishes
+/// (central differences that cancel, common on data of two values, as in
+/// VTK's filters); a component smaller than `f32::EPSILON` is written as 0 (it is
 /// rounding noise, and would otherwise depend on how the point's position
 /// rounded, e.g. for an extent not starting at 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]

@@ -108,6 +108,31 @@ impl Exec<'_> {
     }
 }
 
+/// Runs `f` on a scoped pool of `threads` threads, all joined before it
+/// returns (no thread outlives the call: a host may unload the library
+/// right after). `None` when the pool's threads could not all start (a
+/// process or container limit on threads): the caller then runs the work
+/// another way, with the same result.
+pub(crate) fn with_scoped_pool<R>(
+    threads: usize,
+    f: impl FnOnce(&rayon::ThreadPool) -> R,
+) -> Option<R> {
+    #[cfg(test)]
+    if POOL_FAILS.with(|f| f.get()) {
+        return None;
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_scoped(|thread| thread.run(), f)
+        .ok()
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Makes this thread's pools fail to start (tests of the fallbacks).
+    pub(crate) static POOL_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// Items a task of an external executor gets in [`Exec::extend`] and
 /// [`Exec::fill_default`]: a few chunks a worker, none tiny.
 fn chunk_len(n: usize, ex: &dyn Executor) -> usize {
