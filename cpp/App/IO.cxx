@@ -444,8 +444,7 @@ void CheckAppendedRawData(const std::string& path)
     {
       continue;
     }
-    char* end = nullptr;
-    const unsigned long long offset = std::strtoull(offsetText.c_str(), &end, 10);
+    const unsigned long long offset = std::strtoull(offsetText.c_str(), nullptr, 10);
     const unsigned long long block = dataStart + offset;
     unsigned char bytes[8] = { 0 };
     bool complete = block + headerSize <= fileSize;

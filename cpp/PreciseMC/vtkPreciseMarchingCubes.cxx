@@ -210,6 +210,15 @@ void AdviseHugePages(void* data, size_t bytes)
 #endif
 }
 
+// Extent index `i + d`, held to int's range: an extent may reach INT_MAX,
+// and the extents it is compared with lie within that range anyway.
+int ShiftedIndex(int i, int d)
+{
+  const long long v = static_cast<long long>(i) + d;
+  return static_cast<int>(std::max<long long>(
+    std::numeric_limits<int>::min(), std::min<long long>(std::numeric_limits<int>::max(), v)));
+}
+
 // The library's executor on vtkSMPTools: every task a separate index, so
 // that the backend balances the tasks (slabs of cell layers, chunks of
 // points) one by one. The tasks never throw.
@@ -222,15 +231,6 @@ void AdviseHugePages(void* data, size_t bytes)
 // tasks too: it runs the first one and then, next to a For over the other
 // workers started from a helper thread, takes the others from a shared
 // counter with them.
-// Extent index `i + d`, held to int's range: an extent may reach INT_MAX,
-// and the extents it is compared with lie within that range anyway.
-int ShiftedIndex(int i, int d)
-{
-  const long long v = static_cast<long long>(i) + d;
-  return static_cast<int>(std::max<long long>(
-    std::numeric_limits<int>::min(), std::min<long long>(std::numeric_limits<int>::max(), v)));
-}
-
 void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
 {
   const int workers = vtkSMPTools::GetEstimatedNumberOfThreads();
