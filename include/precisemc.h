@@ -166,7 +166,9 @@ enum pmc_topology
     PMC_TOPOLOGY_TRILINEAR = 0,
     /**
      * The case table of `vtkMarchingCubes`: with refinement off the output
-     * is the surface `vtkMarchingCubes` produces.
+     * is the surface `vtkMarchingCubes` produces. Refined, a cell whose
+     * table patch joins the crossings otherwise than the trilinear
+     * interpolant is split on its faces' edges only.
      */
     PMC_TOPOLOGY_CLASSIC = 1,
 };
@@ -791,9 +793,10 @@ const uint8_t *pmc_mesh_triangle_levels(const struct pmc_mesh *mesh);
 pmc_status pmc_mesh_stats(const struct pmc_mesh *mesh, struct pmc_stats *out);
 
 /**
- * Cells whose refined patch was unsound (two split points on one spot, a
- * non-manifold edge, or a patch turned inside out) and that were refined again splitting only
- * the edges on their faces (see `cells_refined_on_faces_only` in the
+ * Cells refined splitting only the edges on their faces: their refined
+ * patch was unsound (two split points on one spot, a non-manifold edge,
+ * or a patch turned inside out), or, with the Classic topology, their
+ * table patch is not the trilinear interpolant's (see `cells_refined_on_faces_only` in the
  * README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
  * fixed.
  *

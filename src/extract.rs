@@ -26,12 +26,13 @@ use crate::filter::{ReconstructionFilter, Trilinear};
 use crate::flat_map::FlatMap;
 use crate::helpers::with_helpers;
 use crate::layers::{self, LayerScratch, ScratchPool};
+use crate::mc::topology_check::classic_is_trilinear;
 use crate::mc::{cell_triangles_borrowed, classic, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::near_bound;
 use crate::normals::compute_normals;
-use crate::options::{Options, Reconstruction};
+use crate::options::{Options, Reconstruction, Topology};
 use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
 use crate::recycle;
@@ -841,6 +842,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         pinch_fans: REFINE,
         ..Patch::default()
     };
+    // Scratch for the Classic topology's check (`mc::topology_check`).
+    let mut check = Patch::default();
     let mut cache = EdgeCache::default();
     let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
     let mut tested = Vec::with_capacity(16);
@@ -1163,7 +1166,16 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // Interior edges split only in cells free of ties (a sample
                 // at the isovalue is none for the trilinear filter: see
                 // `Refinable`).
-                let refinable = Refinable::of_cell(&f, F::MULTILINEAR && F::LINEAR_ON_EDGES);
+                let mut refinable = Refinable::of_cell(&f, F::MULTILINEAR && F::LINEAR_ON_EDGES);
+                // A table patch that joins the crossings otherwise than
+                // `S_K` can never be refined onto it: its faces' edges
+                // only (see `mc::topology_check`).
+                if opts.topology == Topology::Classic
+                    && !classic_is_trilinear(case, &f, &mut check.tris, &mut check.extra)
+                {
+                    refinable.interior = false;
+                    out.counters.unsound_cells += 1;
+                }
                 // Where the bounds on the interpolant show that every test
                 // at level 0 would find its sample near, the cell keeps its
                 // Marching Cubes triangles: emit them as refinement would,

@@ -39,10 +39,12 @@ pub struct Stats {
     /// Output triangles at the maximum level that still had a sample point
     /// farther than epsilon.
     pub faces_above_epsilon: u64,
-    /// Cells whose refined patch was unsound (two split points on one
-    /// spot, a non-manifold edge, or a patch turned inside out) and that
-    /// were refined again splitting only the edges on their faces; their
-    /// interior edges and centres may then stay farther than epsilon.
+    /// Cells refined splitting only the edges on their faces: their
+    /// refined patch was unsound (two split points on one spot, a
+    /// non-manifold edge, or a patch turned inside out), or, with the
+    /// Classic topology, their table patch is not the trilinear
+    /// interpolant's. Their interior edges and centres may stay farther
+    /// than epsilon.
     pub cells_refined_on_faces_only: u64,
     /// Marching Cubes polygons cut along other diagonals before refining,
     /// because refinement could not bring a diagonal of the case table's

@@ -10,7 +10,10 @@ pub enum Topology {
     #[default]
     Trilinear,
     /// The case table of `vtkMarchingCubes`: with refinement off the output
-    /// is the surface `vtkMarchingCubes` produces.
+    /// is the surface `vtkMarchingCubes` produces. Refined, a cell whose
+    /// table patch joins the crossings otherwise than the trilinear
+    /// interpolant is split on its faces' edges only (its interior could
+    /// never reach the interpolant's isosurface).
     Classic,
 }
 

@@ -290,8 +290,10 @@ pub(crate) struct Counters {
     pub per_level: [u64; 16],
     /// Nodes of the refinement trees per level (for the triangle cap).
     pub nodes_per_level: [u64; 16],
-    /// Cells whose refined patch was unsound (see [`sound_patch`]) and
-    /// were refined again on their faces' edges only.
+    /// Cells refined on their faces' edges only: their refined patch was
+    /// unsound (see [`sound_patch`]), or, with the Classic topology, their
+    /// table patch is not the trilinear interpolant's
+    /// ([`crate::mc::topology_check`]).
     pub unsound_cells: u64,
     /// Split points placed by the nearest-point fallback
     /// ([`Refiner::interior_fallback`]).

@@ -403,7 +403,9 @@ public:
    * Set/Get the topology mode: TOPOLOGY_TRILINEAR (the default; inside
    * every cell the mesh has the topology of the trilinear isosurface,
    * tunnels included) or TOPOLOGY_CLASSIC (the case table of
-   * vtkMarchingCubes).
+   * vtkMarchingCubes; refined, a cell whose table patch joins the
+   * crossings otherwise than the trilinear interpolant is split on its
+   * faces' edges only).
    */
   vtkSetClampMacro(Topology, int, TOPOLOGY_TRILINEAR, TOPOLOGY_CLASSIC);
   vtkGetMacro(Topology, int);
@@ -496,10 +498,11 @@ public:
    *   only one farther away than the edge (triangle) sampled.
    * - NumberOfFacesAboveEpsilon: triangles at MaxLevel still farther than
    *   Epsilon at a sample point.
-   * - NumberOfCellsRefinedOnFacesOnly: cells whose refined patch was
-   *   unsound (split points meeting, a patch turned inside out) and that
-   *   were refined again on their faces' edges only (their interior may
-   *   stay farther than Epsilon).
+   * - NumberOfCellsRefinedOnFacesOnly: cells refined on their faces'
+   *   edges only (their interior may stay farther than Epsilon): their
+   *   refined patch was unsound (split points meeting, a patch turned
+   *   inside out), or, with Topology Classic, their table patch is not
+   *   the trilinear interpolant's.
    * - NumberOfRecutPolygons: Marching Cubes polygons cut along other
    *   diagonals before refining, because refinement could not bring a
    *   diagonal of the case table's onto the isosurface (0 with

@@ -82,7 +82,9 @@ pub enum PmcTopology {
     /// trilinear interpolant (the default).
     Trilinear = 0,
     /// The case table of `vtkMarchingCubes`: with refinement off the output
-    /// is the surface `vtkMarchingCubes` produces.
+    /// is the surface `vtkMarchingCubes` produces. Refined, a cell whose
+    /// table patch joins the crossings otherwise than the trilinear
+    /// interpolant is split on its faces' edges only.
     Classic = 1,
 }
 raw_enum!(PmcTopology: Trilinear, Classic);

@@ -376,9 +376,10 @@ pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_sta
     })
 }
 
-/// Cells whose refined patch was unsound (two split points on one spot, a
-/// non-manifold edge, or a patch turned inside out) and that were refined again splitting only
-/// the edges on their faces (see `cells_refined_on_faces_only` in the
+/// Cells refined splitting only the edges on their faces: their refined
+/// patch was unsound (two split points on one spot, a non-manifold edge,
+/// or a patch turned inside out), or, with the Classic topology, their
+/// table patch is not the trilinear interpolant's (see `cells_refined_on_faces_only` in the
 /// README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
 /// fixed.
 ///

@@ -9,6 +9,7 @@
 //! on the sample itself (they are merged there, see `extract`).
 
 pub mod classic;
+pub mod topology_check;
 pub mod trilinear;
 
 use crate::options::Topology;
