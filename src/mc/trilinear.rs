@@ -707,20 +707,41 @@ fn interior_point(f: &[f64; 8], l: &[u8]) -> [f64; 3] {
 /// by advancing on `a`, ends by advancing on `b` and does not finish `a`
 /// before leaving the start vertex of `b`, so no diagonal is used twice (a
 /// repeated diagonal would be an edge in four triangles). Costs,
-/// in order of weight: a triangle lying flat in a cell face (it would
+/// in order of weight: a diagonal lying in a face that the neighbour may
+/// also take (see below), a triangle lying flat in a cell face (it would
 /// overlap the neighbour's patch boundary), a diagonal lying in a face,
 /// then the diagonal's length.
+///
+/// A diagonal in a face joins the two segments of an ambiguous face (in
+/// different loops). The cell across that face may stitch a tube there
+/// too, and where both took the same diagonal it would be an edge in four
+/// triangles; lengths cannot keep them apart (both cells see the same
+/// crossings, and near a face saddle at the isovalue the two diagonals
+/// across the face tie). So a cell may only join the segments' heads (in
+/// its loops' direction, opposite crossings of the face): the neighbour
+/// walks each segment of the face the other way (its outside is this
+/// cell's inside), so it may only join their tails, the other diagonal.
+/// That rests on the signs and the face's decision alone, which both cells
+/// share. A strip may cross such a face along either diagonal (mirror
+/// images), so this adds no diagonal in a face; a head joined to a tail
+/// always closes a flat triangle. The cost is soft like the others, so a
+/// strip always exists.
 fn stitch(f: &[f64; 8], a: &[u8], b: &[u8], out: &mut Vec<[u8; 3]>) {
     let pa: Vec<[f64; 3]> = a.iter().map(|&e| crossing(f, e)).collect();
     let pb: Vec<[f64; 3]> = b.iter().map(|&e| crossing(f, e)).collect();
     let (m, n) = (a.len(), b.len());
+    const FOREIGN: f64 = 1e9;
     const FLAT: f64 = 1e6;
     const IN_FACE: f64 = 1e3;
     // Cost of the triangle closing at diagonal (ia, jb) after advancing.
     let tri_cost = |x: u8, y: u8, z: u8, da: usize, db: usize| {
         let mut c = dist2(pa[da], pb[db]).sqrt();
-        if share_face(a[da], b[db]) {
-            c += IN_FACE;
+        let face = VERTEX_FACES[a[da] as usize] & VERTEX_FACES[b[db] as usize];
+        if face != 0 {
+            // Heads: each end's predecessor in its loop is on that face.
+            let (prev_a, prev_b) = (a[(da + m - 1) % m], b[(db + n - 1) % n]);
+            let heads = VERTEX_FACES[prev_a as usize] & VERTEX_FACES[prev_b as usize] & face != 0;
+            c += if heads { IN_FACE } else { FOREIGN };
         }
         if on_one_face([x, y, z]) {
             c += FLAT;
