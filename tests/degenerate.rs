@@ -831,24 +831,25 @@ fn checker(dims: [usize; 3]) -> Vec<f64> {
 #[test]
 fn classic_refinement_stays_bounded_where_the_table_is_not_s_k() {
     let mut failures = Vec::new();
-    let mut cases: Vec<(String, [usize; 3], Vec<f64>, f64, u32)> = Vec::new();
+    let mut cases: Vec<(String, [usize; 3], Vec<f64>, f64)> = Vec::new();
+    let level = 6;
     for seed in 0..60u64 {
         let mut rng = Rng::new(seed);
         let v: Vec<f64> = (0..64).map(|_| rng.range(-1.0, 1.0)).collect();
         for iso in [-0.5, 0.0, 0.3] {
-            cases.push((format!("random seed {seed}"), [4, 4, 4], v.clone(), iso, 6));
+            cases.push((format!("random seed {seed}"), [4, 4, 4], v.clone(), iso));
         }
     }
     for n in [2, 3, 5] {
         for iso in [-0.8, -0.5, -0.2, 0.2, 0.5, 0.8] {
-            cases.push((format!("checker {n}^3"), [n; 3], checker([n; 3]), iso, 6));
+            cases.push((format!("checker {n}^3"), [n; 3], checker([n; 3]), iso));
         }
     }
-    for (name, dims, v, iso, level) in &cases {
+    for (name, dims, v, iso) in &cases {
         let vol = Volume::new(v, dims_u64(*dims));
         for rule in [Rule::B, Rule::A1] {
             let run = |topology| {
-                extract(&vol, *iso, &refine_opts(topology, rule, 0.1, *level))
+                extract(&vol, *iso, &refine_opts(topology, rule, 0.1, level))
                     .unwrap()
                     .stats
             };
