@@ -9,7 +9,8 @@
 //! checkerboard cell refined to level 9 with rule B gave 3 M triangles).
 //! The extraction refines such cells on their faces' edges only.
 
-use super::{classic, trilinear};
+use super::classic;
+use super::trilinear::{self, UnionFind};
 use crate::tables::cube::NEEDS_TOPOLOGY_TEST;
 
 /// Whether the table's triangles for `case` (`== case_index(f)`) have the
@@ -49,14 +50,7 @@ struct Shape {
 impl Shape {
     fn of(tris: &[[u8; 3]]) -> Self {
         // Interior points are few (ids below 32 cover every patch).
-        let mut parent: [u8; 32] = std::array::from_fn(|k| k as u8);
-        fn root(parent: &mut [u8; 32], mut x: u8) -> u8 {
-            while parent[x as usize] != x {
-                parent[x as usize] = parent[parent[x as usize] as usize];
-                x = parent[x as usize];
-            }
-            x
-        }
+        let mut uf = UnionFind::<32>::new();
         let mut sides = [0u8; 12 * 12];
         let mut used = 0u32;
         for t in tris {
@@ -66,8 +60,7 @@ impl Shape {
                 if b < 12 {
                     sides[12 * a as usize + b as usize] += 1;
                 }
-                let (ra, rb) = (root(&mut parent, a.min(31)), root(&mut parent, b.min(31)));
-                parent[ra.max(rb) as usize] = ra.min(rb);
+                uf.union(a.min(31), b.min(31));
             }
         }
         let mut shape = Shape {
@@ -79,10 +72,7 @@ impl Shape {
                 if sides[12 * a as usize + b as usize] == 1 {
                     shape.boundary[a as usize] |= 1 << b;
                 }
-                if used & (1 << a) != 0
-                    && used & (1 << b) != 0
-                    && root(&mut parent, a) == root(&mut parent, b)
-                {
+                if used & (1 << a) != 0 && used & (1 << b) != 0 && uf.find(a) == uf.find(b) {
                     shape.piece[a as usize] |= 1 << b;
                 }
             }

@@ -44,13 +44,15 @@ use crate::tables::cube::{
     face_is_ambiguous, on_one_face, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES,
 };
 
-struct UnionFind([u8; 8]);
+/// Disjoint sets of `N` small ids (`N <= 256`): a cell's corners here, a
+/// patch's points in [`super::topology_check`].
+pub(super) struct UnionFind<const N: usize>([u8; N]);
 
-impl UnionFind {
-    fn new() -> Self {
-        UnionFind([0, 1, 2, 3, 4, 5, 6, 7])
+impl<const N: usize> UnionFind<N> {
+    pub(super) fn new() -> Self {
+        UnionFind(std::array::from_fn(|k| k as u8))
     }
-    fn find(&mut self, mut a: u8) -> u8 {
+    pub(super) fn find(&mut self, mut a: u8) -> u8 {
         while self.0[a as usize] != a {
             let p = self.0[a as usize];
             self.0[a as usize] = self.0[p as usize];
@@ -58,7 +60,7 @@ impl UnionFind {
         }
         a
     }
-    fn union(&mut self, a: u8, b: u8) {
+    pub(super) fn union(&mut self, a: u8, b: u8) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra != rb {
             // Keep the smaller root: deterministic classes.
@@ -346,7 +348,7 @@ fn find_loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
 
 /// Union-find classes of corners: regions of `P` and `N` joined on the
 /// boundary and through the interior (steps 2 and 3).
-fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind {
+fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
     let inside = |c: usize| f[c] >= 0.0;
     let mut uf = UnionFind::new();
     for [a, b] in EDGES {
