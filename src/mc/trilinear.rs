@@ -111,14 +111,47 @@ fn crossing(f: &[f64; 8], e: u8) -> [f64; 3] {
 }
 
 /// Whether the bilinear function with corner values `g` (cyclic order,
-/// alternating signs) joins its inside corners.
+/// alternating signs) joins its inside corners. The products are taken of
+/// the values brought into [`product_range`] (the signs of the values as
+/// given), so that the answer does not change when the data is scaled
+/// (taken as given, on values below about 1e-154 both products underflow
+/// to 0 and every face joins its inside corners). The scale depends on
+/// the face's four values alone: both cells sharing it still agree.
 #[inline]
 fn joins_inside(g: [f64; 4]) -> bool {
+    let s = product_range(g);
     if g[0] >= 0.0 {
-        g[0] * g[2] >= g[1] * g[3]
+        s[0] * s[2] >= s[1] * s[3]
     } else {
-        g[1] * g[3] >= g[0] * g[2]
+        s[1] * s[3] >= s[0] * s[2]
     }
+}
+
+/// `v` times a power of two that brings its largest magnitude within
+/// 2^-200..2^200, where products of up to four of them (a discriminant)
+/// neither overflow nor underflow to 0; `v` itself when it lies there
+/// already (then nothing changes), or holds a non-finite value. The
+/// scaling is exact, so comparisons and roots of such products keep their
+/// answer; a value too small beside the largest one to matter may be
+/// flushed to 0 (only magnitudes may be used, not signs).
+#[inline]
+fn product_range<const N: usize>(v: [f64; N]) -> [f64; N] {
+    const UP: f64 = 1.6069380442589903e60; // 2^200
+    const DOWN: f64 = 6.223015277861142e-61; // 2^-200
+    let mut m = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(m > 0.0 && m.is_finite()) || (DOWN..=UP).contains(&m) {
+        return v;
+    }
+    let mut s = 1.0;
+    while m < DOWN {
+        m *= UP;
+        s *= UP;
+    }
+    while m > UP {
+        m *= DOWN;
+        s *= DOWN;
+    }
+    v.map(|x| x * s)
 }
 
 /// Per-face result of the asymptotic decider: `Some(true)` when an
@@ -428,6 +461,10 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
 /// diagonal products agree, `g0 g2 = g1 g3`, a quadratic in `t`). Any real
 /// roots; the callers keep those in (0, 1).
 fn saddle_heights(a: [f64; 4], b: [f64; 4]) -> ([f64; 2], usize) {
+    // Both scaled alike (the roots do not change), so that the products
+    // do not underflow on tiny data ([`product_range`]).
+    let ab = product_range([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]);
+    let (a, b) = ([ab[0], ab[1], ab[2], ab[3]], [ab[4], ab[5], ab[6], ab[7]]);
     let qa = b[0] * b[2] - b[1] * b[3];
     let qb = a[0] * b[2] + a[2] * b[0] - a[1] * b[3] - a[3] * b[1];
     let qc = a[0] * a[2] - a[1] * a[3];
@@ -872,5 +909,36 @@ mod tests {
             }
         }
         assert!(loops_seen > 254 * 40);
+    }
+
+    #[test]
+    fn decisions_and_regions_do_not_change_with_the_scale_of_the_data() {
+        // Products of values below about 1e-154 underflowed to 0 (every
+        // face then joined its inside corners, and no body saddle was
+        // found), and above about 1e154 they overflowed: a tiny or huge
+        // volume got another topology than the same volume scaled to 1.
+        let mut rng = crate::test_rng::XorShift(0x5ca1e);
+        for _ in 0..20_000 {
+            let f: [f64; 8] = std::array::from_fn(|_| {
+                let m = 0.05 + rng.unit();
+                if rng.below(2) == 0 {
+                    m
+                } else {
+                    -m
+                }
+            });
+            let d = face_decisions(&f);
+            let mut classes = regions(&f, &d);
+            let want: [u8; 8] = std::array::from_fn(|c| classes.find(c as u8));
+            for e in [-1000, -700, -600, -520, 520, 600, 1000] {
+                let s = 2f64.powi(e);
+                let g = f.map(|v| v * s);
+                let dg = face_decisions(&g);
+                assert_eq!(dg, d, "{f:?} x 2^{e}");
+                let mut classes = regions(&g, &dg);
+                let got: [u8; 8] = std::array::from_fn(|c| classes.find(c as u8));
+                assert_eq!(got, want, "{f:?} x 2^{e}");
+            }
+        }
     }
 }
