@@ -1010,9 +1010,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let (sa, sb) = (c[a as usize], c[b as usize]);
                     // vtkMarchingCubes: t from the lower corner.
                     let mut t = (sh.iso - sa) / (sb - sa);
-                    if !t.is_finite() {
-                        // The difference overflowed (samples near
-                        // +-f64::MAX): the same ratio of halves.
+                    if !t.is_finite() || !(sb - sa).is_finite() {
+                        // A difference overflowed (samples beyond half of
+                        // f64::MAX with opposite signs; with only the
+                        // denominator infinite, t came out 0, a point on
+                        // the corner): the same ratio of halves.
                         t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa)).clamp(0.0, 1.0);
                     }
                     if let Some(fc) = &edge_filter {

@@ -101,7 +101,15 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
 fn crossing(f: &[f64; 8], e: u8) -> [f64; 3] {
     let [a, b] = EDGES[e as usize];
     let (fa, fb) = (f[a as usize], f[b as usize]);
-    let t = if fb != fa { -fa / (fb - fa) } else { 0.5 };
+    let t = if fb == fa {
+        0.5
+    } else if (fb - fa).is_finite() {
+        -fa / (fb - fa)
+    } else {
+        // The difference overflowed (values beyond half of f64::MAX with
+        // opposite signs): the same ratio of halves.
+        (-0.5 * fa / (0.5 * fb - 0.5 * fa)).clamp(0.0, 1.0)
+    };
     let (pa, pb) = (CORNERS[a as usize], CORNERS[b as usize]);
     let mut p = [0.0; 3];
     for k in 0..3 {
@@ -511,6 +519,14 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
     if !f.iter().all(|v| v.is_finite()) {
         return;
     }
+    let lowered;
+    let f = match with_headroom(f) {
+        Some(g) => {
+            lowered = g;
+            &lowered
+        }
+        None => f,
+    };
     let (decisions, loops) = decided_loops(f);
     match loops.len() {
         0 => return,
@@ -549,6 +565,35 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
             }
         }
     }
+}
+
+/// Values beyond this magnitude are brought down by [`HEADROOM_SCALE`]
+/// before a cell's patch is worked out (see [`with_headroom`]).
+const HEADROOM_LIMIT: f64 = 8.98846567431158e299; // 2^1000
+
+/// An exact power of two, 2^-24.
+const HEADROOM_SCALE: f64 = 5.960464477539063e-8;
+
+/// `f` times [`HEADROOM_SCALE`] when some value exceeds
+/// [`HEADROOM_LIMIT`], else `None`. Differences of values near
+/// `f64::MAX` overflow (the slices' value changes of [`regions`], the
+/// gradients of [`interior_point`]): a cell of such values got the
+/// topology of other data. Scaling by a power of two changes no crossing,
+/// decision or root; a value that the scaling would round to zero keeps
+/// its sign as the least subnormal of that sign (its corner's side
+/// must not change).
+fn with_headroom(f: &[f64; 8]) -> Option<[f64; 8]> {
+    if f.iter().all(|v| v.abs() <= HEADROOM_LIMIT) {
+        return None;
+    }
+    Some(f.map(|v| {
+        let w = v * HEADROOM_SCALE;
+        if w == 0.0 && v != 0.0 {
+            f64::from_bits(1).copysign(v)
+        } else {
+            w
+        }
+    }))
 }
 
 /// Whether two cell edges lie on a common face (a diagonal between their
