@@ -961,6 +961,15 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 for q in 0..8 {
                     f[q] = c[q] - sh.iso;
                 }
+                if !f.iter().all(|v| v.is_finite()) {
+                    // A sample and the isovalue beyond half of f64::MAX,
+                    // of opposite signs: halves, which keep every sign,
+                    // crossing and decision of the cell (an infinite
+                    // value made the trilinear topology drop the cell).
+                    for q in 0..8 {
+                        f[q] = 0.5 * c[q] - 0.5 * sh.iso;
+                    }
+                }
                 let (tris, extra, ambiguous) =
                     cell_triangles_borrowed(case, &f, opts.topology, &mut patch);
                 if ambiguous {

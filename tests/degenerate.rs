@@ -1560,15 +1560,17 @@ fn tiny_and_huge_magnitudes_give_the_topology_of_the_unscaled_data() {
     report(failures);
 }
 
-/// Samples up to +-f64::MAX: the difference of two samples of opposite
-/// signs beyond half of it overflows. Where only the denominator of an
-/// edge's crossing ratio overflowed, the ratio came out 0 and the point
-/// sat on the grid point (the check caught only a NaN or infinite ratio):
-/// crossings of several edges met there, and random volumes of values
-/// times f64::MAX had edges in three or four triangles (564 of 3600 meshes,
-/// both topologies). Each mesh must have the shape of the same data times
-/// 2^-8, and refined ones (which fall back to the Marching Cubes triangles
-/// there: squared gradients overflow) no edge in more than two triangles.
+/// Samples (and isovalues) up to +-f64::MAX: the difference of two
+/// values of opposite signs beyond half of it overflows. Where only the
+/// denominator of an edge's crossing ratio overflowed, the ratio came out
+/// 0 and the point sat on the grid point (the check caught only a NaN or
+/// infinite ratio): crossings of several edges met there, and random
+/// volumes of values times f64::MAX had edges in three or four triangles
+/// (564 of 3600 meshes, both topologies); where a sample less the
+/// isovalue overflowed, the trilinear topology dropped the cell. Each mesh
+/// must have the shape of the same data and isovalue times 2^-8, and
+/// refined ones (which fall back to the Marching Cubes triangles there:
+/// squared gradients overflow) no edge in more than two triangles.
 #[test]
 fn samples_near_f64_max_give_the_mesh_of_the_scaled_data() {
     let mut failures = Vec::new();
@@ -1586,11 +1588,15 @@ fn samples_near_f64_max_give_the_mesh_of_the_scaled_data() {
                 }
             })
             .collect();
+        // The isovalue 0, or half of the largest value (times the scale):
+        // samples and isovalue of opposite signs then differ by more than
+        // f64::MAX.
+        let iso = [0.0, -0.5, 0.5][round % 3];
         for topology in [Topology::Trilinear, Topology::Classic] {
             let shape = |scale: f64, opts: &Options| {
                 let s: Vec<f64> = v.iter().map(|x| x * scale).collect();
                 let vol = Volume::new(&s, dims.map(|d| d as u64));
-                let m = extract(&vol, 0.0, opts).unwrap();
+                let m = extract(&vol, iso * scale, opts).unwrap();
                 let c = check_mesh(&m);
                 (
                     m.triangles.len(),
