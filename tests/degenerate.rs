@@ -1501,6 +1501,20 @@ fn sign_patterns_with_magnitudes_over_six_decades() {
     report(failures);
 }
 
+/// A mesh's shape, to compare meshes whose points may differ by rounding:
+/// its triangles, components, Euler characteristic, edges in more than
+/// two triangles and duplicate triangles.
+fn shape_of(m: &Mesh) -> (usize, usize, i64, usize, usize) {
+    let c = check_mesh(m);
+    (
+        m.triangles.len(),
+        c.components,
+        c.euler,
+        c.nonmanifold_edges,
+        c.duplicates,
+    )
+}
+
 /// Every sign pattern of a cell (random magnitudes, and magnitudes 1 and
 /// 2 with zeros) scaled by powers of two down to 2^-1000 and up to 2^1000:
 /// the Marching Cubes mesh of the unscaled cell (as many triangles, as
@@ -1535,17 +1549,9 @@ fn tiny_and_huge_magnitudes_give_the_topology_of_the_unscaled_data() {
             let at = |s: f64| {
                 let v: Vec<f64> = padded_cell(&f).iter().map(|x| x * s).collect();
                 let vol = Volume::new(&v, [4, 4, 4]);
-                let m = extract(&vol, 0.0, &mc_opts(topology)).unwrap();
                 // (Interior points are projections, which may round
                 // otherwise: compared by the mesh's shape.)
-                let c = check_mesh(&m);
-                (
-                    m.triangles.len(),
-                    c.components,
-                    c.euler,
-                    c.nonmanifold_edges,
-                    c.duplicates,
-                )
+                shape_of(&extract(&vol, 0.0, &mc_opts(topology)).unwrap())
             };
             let want = at(1.0);
             for e in [-1000, -600, -520, 520, 600, 1000] {
@@ -1596,15 +1602,7 @@ fn samples_near_f64_max_give_the_mesh_of_the_scaled_data() {
             let shape = |scale: f64, opts: &Options| {
                 let s: Vec<f64> = v.iter().map(|x| x * scale).collect();
                 let vol = Volume::new(&s, dims.map(|d| d as u64));
-                let m = extract(&vol, iso * scale, opts).unwrap();
-                let c = check_mesh(&m);
-                (
-                    m.triangles.len(),
-                    c.components,
-                    c.euler,
-                    c.nonmanifold_edges,
-                    c.duplicates,
-                )
+                shape_of(&extract(&vol, iso * scale, opts).unwrap())
             };
             let off = mc_opts(topology);
             let want = shape(2f64.powi(-8), &off);
