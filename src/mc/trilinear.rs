@@ -101,15 +101,8 @@ fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
 fn crossing(f: &[f64; 8], e: u8) -> [f64; 3] {
     let [a, b] = EDGES[e as usize];
     let (fa, fb) = (f[a as usize], f[b as usize]);
-    let t = if fb == fa {
-        0.5
-    } else if (fb - fa).is_finite() {
-        -fa / (fb - fa)
-    } else {
-        // The difference overflowed (values beyond half of f64::MAX with
-        // opposite signs): the same ratio of halves.
-        (-0.5 * fa / (0.5 * fb - 0.5 * fa)).clamp(0.0, 1.0)
-    };
+    // (No overflow: `triangles` works on values within 2^1000.)
+    let t = if fb != fa { -fa / (fb - fa) } else { 0.5 };
     let (pa, pb) = (CORNERS[a as usize], CORNERS[b as usize]);
     let mut p = [0.0; 3];
     for k in 0..3 {
@@ -577,11 +570,11 @@ const HEADROOM_SCALE: f64 = 5.960464477539063e-8;
 /// `f` times [`HEADROOM_SCALE`] when some value exceeds
 /// [`HEADROOM_LIMIT`], else `None`. Differences of values near
 /// `f64::MAX` overflow (the slices' value changes of [`regions`], the
-/// gradients of [`interior_point`]): a cell of such values got the
-/// topology of other data. Scaling by a power of two changes no crossing,
-/// decision or root; a value that the scaling would round to zero keeps
-/// its sign as the least subnormal of that sign (its corner's side
-/// must not change).
+/// edges' [`crossing`]s, the gradients of [`interior_point`]): a cell of
+/// such values got the topology of other data. Scaling by a power of two
+/// changes no crossing, decision or root; a value that the scaling would
+/// round to zero keeps its sign as the least subnormal of that sign (its
+/// corner's side must not change).
 fn with_headroom(f: &[f64; 8]) -> Option<[f64; 8]> {
     if f.iter().all(|v| v.abs() <= HEADROOM_LIMIT) {
         return None;
