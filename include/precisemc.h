@@ -671,8 +671,10 @@ pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue
  * caches, and the arrays of meshes passed to `pmc_mesh_free` or
  * `pmc_buffer_free`) rather than into fresh pages; at most 64 MiB is
  * kept, process-wide. Call this after a burst of extractions when the
- * memory is wanted elsewhere. Thread-safe; extractions running meanwhile
- * are not affected.
+ * memory is wanted elsewhere. Also stops the helper threads the library
+ * keeps between extractions (parked; each returns by itself after 1 s
+ * without work) unless an extraction is using them. Thread-safe;
+ * extractions running meanwhile are not affected.
  */
 size_t pmc_release_memory(void);
 
@@ -995,8 +997,8 @@ pmc_status pmc_options_set_progress(struct pmc_options *options, pmc_progress_fn
 /**
  * Lends the host's thread pool to later extractions with these options
  * (see `pmc_executor_fn`): their parallel steps become tasks of
- * `executor` instead of running on threads `pmc_extract` starts and
- * joins, and the thread count (`pmc_options_set_threads`) is not used:
+ * `executor` instead of running on the library's own helper threads,
+ * and the thread count (`pmc_options_set_threads`) is not used:
  * the volume is cut for `concurrency` workers, the number of tasks the
  * host runs at once. `executor = NULL` clears it (the default: threads of
  * the extraction's own). The output does not depend on it.

@@ -1,8 +1,9 @@
 //! Running an extraction's parallel steps on the host's threads.
 //!
-//! By default an extraction starts its own worker threads and joins them
-//! before it returns (no thread outlives a call, so a host may unload the
-//! library right after). A host that already keeps a thread pool (VTK's
+//! By default an extraction runs on the calling thread and the library's
+//! own helper threads (`crate::helpers`: kept between calls, parked, each
+//! returning after a second without work). A host that already keeps a
+//! thread pool (VTK's
 //! `vtkSMPTools`, TBB, OpenMP, a game engine's job system) can lend it
 //! instead through an [`Executor`]: no thread is started per call, and
 //! the extraction shares the cores with the host's other work the way the

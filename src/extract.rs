@@ -16,7 +16,6 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use crate::assemble::{assemble, in_grid_plane};
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
@@ -97,11 +96,11 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// Like [`extract`], reporting progress.
 ///
 /// `progress(fraction)` is called on the calling thread, first with 0.0,
-/// then about every 20 ms while workers run, and last with 1.0 on success.
-/// (Plain Marching Cubes of up to 4 Mi cells on one thread, a few
-/// milliseconds of work, runs on the calling thread with no call in
-/// between; on several threads, progress is reported after each slab of
-/// cell layers the calling thread contours itself.)
+/// then at most every 20 ms while the work runs (the calling thread works
+/// too, and reports between its cell layers, refined cells and every few
+/// thousand refinement steps), and last with 1.0 on success. (Plain
+/// Marching Cubes of up to 4 Mi cells on one thread, a few milliseconds
+/// of work, runs with no call in between.)
 /// Returning `ControlFlow::Break(())` stops the extraction once each
 /// worker finishes the cell layer it is on (within a few milliseconds for
 /// layers of up to about a million cells; a layer of very many cells
@@ -250,6 +249,9 @@ struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     /// Whether a cell whose refinement stalls is meshed again on sub-cells
     /// (see [`crate::subcells`]).
     subcells: bool,
+    /// Reports progress when called on the calling thread (after each
+    /// layer); `None` where nothing is reported until the end.
+    poll: Option<&'a OnCaller<'a>>,
 }
 
 /// How many refined cells of a slab are all timed before only one in
@@ -327,6 +329,9 @@ impl Reporter<'_> {
 
 /// Most worker threads one extraction starts (more requested are clamped).
 pub const MAX_THREADS: usize = 4096;
+
+/// The least time between two progress reports while the workers run.
+const PROGRESS_EVERY: Duration = Duration::from_millis(20);
 
 /// With refinement off, the fewest cells a slab gets. Plain Marching Cubes
 /// costs a few nanoseconds a cell, so a smaller slab costs more in its own
@@ -492,19 +497,10 @@ fn run<T: Scalar>(
     if let Some(ex) = how.executor {
         return run_on(Exec::External(ex));
     }
-    // Plain Marching Cubes on several threads: a few milliseconds on a
-    // small volume, which helper threads next to the calling one share at
-    // less cost than a pool (see `helpers`).
-    if !refine && threads > 1 {
-        return with_helpers(threads, |h| run_on(Exec::External(h)));
-    }
-    match crate::par::with_scoped_pool(threads, |pool| run_on(Exec::Pool(pool))) {
-        Some(result) => result,
-        // Not all of the pool's threads could start (a process or container
-        // limit on threads): the helpers run the steps on as many as start,
-        // the calling thread at least. The output is the same.
-        None => with_helpers(threads, |h| run_on(Exec::External(h))),
-    }
+    // The calling thread works next to `threads - 1` helper threads (kept
+    // between calls: see `helpers`), and reports progress after each
+    // layer of cells it contours.
+    with_helpers(threads, |h| run_on(Exec::External(h)))
 }
 
 /// One extraction on `exec`: Marching Cubes on `grid`'s samples, then
@@ -545,12 +541,22 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
         ..Stats::default()
     };
 
-    // Runs one pass over all slabs while the calling thread reports progress.
+    // Runs one pass over all slabs. The calling thread reports progress
+    // (and passes on a stop) after each layer of cells it contours, and
+    // after each of its slabs (a host's executor may run none there).
     let mut pass =
         |max_level: u32, mode: Mode, weight: (f64, f64)| -> Result<Vec<SlabOut>, Error> {
             emitted.store(0, Ordering::Relaxed);
             layers_done.store(0, Ordering::Relaxed);
             over_cap.store(false, Ordering::Relaxed);
+            let mut report = || {
+                let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
+                if !reporter.report(weight.0 + weight.1 * done.min(1.0)) {
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            };
+            let poll = OnCaller::every(&mut report, PROGRESS_EVERY);
+            let serial = matches!(exec, Exec::Serial);
             let shared = Shared {
                 grid,
                 filter,
@@ -566,64 +572,20 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
                 layers_done: &layers_done,
                 scratch: &scratch,
                 subcells: refine && subcells::allowed(options),
+                poll: (!serial).then_some(&poll),
             };
-            let pool = match exec {
-                Exec::Serial => {
-                    let outs: Vec<SlabOut> = slabs
-                        .iter()
-                        .map(|&(k0, k1)| process_slab(&shared, k0, k1, mode))
-                        .collect();
-                    return finish_pass(outs, &cancel);
-                }
-                Exec::Pool(pool) => pool,
-                Exec::External(_) => {
-                    // Progress from the tasks the host runs on this thread.
-                    let mut report = || {
-                        let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
-                        if !reporter.report(weight.0 + weight.1 * done.min(1.0)) {
-                            cancel.store(true, Ordering::Relaxed);
-                        }
-                    };
-                    let poll = OnCaller::new(&mut report);
-                    let outs = exec.map_polling(
-                        slabs.clone(),
-                        |(k0, k1)| process_slab(&shared, k0, k1, mode),
-                        &poll,
-                    )?;
-                    return finish_pass(outs, &cancel);
-                }
-            };
-            let (tx, rx) = std::sync::mpsc::channel();
-            // The work goes to the pool while this thread reports progress
-            // (no thread of its own: starting one costs more than
-            // contouring a small volume).
-            let outs = pool.in_place_scope(|scope| {
-                let shared = &shared;
-                let slabs = &slabs;
-                scope.spawn(move |_| {
-                    let r: Vec<SlabOut> = slabs
-                        .par_iter()
-                        .map(|&(k0, k1)| process_slab(shared, k0, k1, mode))
-                        .collect();
-                    let _ = tx.send(r);
-                });
-                loop {
-                    match rx.recv_timeout(Duration::from_millis(20)) {
-                        Ok(r) => break r,
-                        // The worker panicked (a bug): the scope re-raises
-                        // its panic on return, for the caller's guard.
-                        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                            break Vec::new();
-                        }
-                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                            let done = layers_done.load(Ordering::Relaxed) as f64 / nz as f64;
-                            if !reporter.report(weight.0 + weight.1 * done.min(1.0)) {
-                                cancel.store(true, Ordering::Relaxed);
-                            }
-                        }
-                    }
-                }
-            });
+            if serial {
+                let outs: Vec<SlabOut> = slabs
+                    .iter()
+                    .map(|&(k0, k1)| process_slab(&shared, k0, k1, mode))
+                    .collect();
+                return finish_pass(outs, &cancel);
+            }
+            let outs = exec.map_polling(
+                slabs.clone(),
+                |(k0, k1)| process_slab(&shared, k0, k1, mode),
+                &poll,
+            )?;
             finish_pass(outs, &cancel)
         };
 
@@ -1223,6 +1185,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.counters.samples += samples;
                     out.counters.per_level[0] += n;
                     out.counters.nodes_per_level[0] += n;
+                    if let Some(p) = sh.poll {
+                        p.poll();
+                    }
                     if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                         break 'layers;
                     }
@@ -1316,6 +1281,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     // Distinct ids for new points when counting (the edge
                     // cache is keyed by ids; 0..16 are the cell's own points).
                     let mut next_id = 16u32;
+                    let tick = || {
+                        if let Some(p) = sh.poll {
+                            p.poll();
+                        }
+                    };
                     let mut refiner = Refiner::<F> {
                         cell: &fc,
                         iso: sh.iso,
@@ -1333,6 +1303,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         },
                         cancel: sh.cancel,
                         polls: 0,
+                        tick: sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
                         refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
@@ -1499,6 +1470,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         remesh_cell(&mut out, &mut map, &mut local, &at, opts, sh.max_level);
                     }
                 }
+                if let Some(p) = sh.poll {
+                    p.poll();
+                }
                 if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                     break 'layers;
                 }
@@ -1506,6 +1480,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         }
         sh.layers_done.fetch_add(1, Ordering::Relaxed);
         out.layers += 1;
+        if let Some(p) = sh.poll {
+            p.poll();
+        }
     }
     if !REFINE && !count_only {
         // Plain Marching Cubes: every triangle is at level 0.
@@ -2001,9 +1978,10 @@ mod tests {
 
     #[test]
     fn threads_that_cannot_start_leave_the_output_unchanged() {
-        // A limit on threads (a container's pids limit) makes the pool's
-        // build fail: the extraction and the measure then run on the
-        // threads that start instead of failing, with the same result.
+        // A limit on threads (a container's pids limit) makes helper
+        // threads and the measure's pool fail to start: the extraction and
+        // the measure then run on the threads that start (the calling one)
+        // instead of failing, with the same result.
         let atoms = crate::samples::atoms(24);
         let v = atoms.volume();
         let o = Options {
@@ -2022,9 +2000,11 @@ mod tests {
         let pooled = extract(&v, atoms.isovalue, &o).unwrap();
         let pooled_distance = measure(&pooled);
         crate::par::POOL_FAILS.with(|f| f.set(true));
+        crate::helpers::SPAWN_FAILS.with(|f| f.set(true));
         let fallback = extract(&v, atoms.isovalue, &o);
         let fallback_distance = fallback.as_ref().ok().map(measure);
         crate::par::POOL_FAILS.with(|f| f.set(false));
+        crate::helpers::SPAWN_FAILS.with(|f| f.set(false));
         let fallback = fallback.unwrap();
         assert!(pooled.stats.output_triangles > pooled.stats.mc_triangles);
         assert_eq!(pooled.points, fallback.points);

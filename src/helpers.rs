@@ -1,21 +1,34 @@
-//! Helper threads started for one call: an [`Executor`] for short
-//! parallel steps.
+//! Helper threads for short parallel steps: an [`Executor`] made of the
+//! calling thread and `threads - 1` helpers.
 //!
 //! Plain Marching Cubes of a small volume takes a millisecond or two. A
 //! rayon pool started for it (its threads spawned, the calling thread
 //! parked while the work hops to them and back at every step) cost about
 //! as much as the work it shared. Here the calling thread works too, next
-//! to `threads - 1` helpers that wait between steps on a condition
-//! variable, and a step whose tasks the caller has already taken does
-//! not wait for a helper to wake. The helpers are scoped threads: all are
-//! joined before [`with_helpers`] returns, so none outlives the call.
+//! to helpers that wait between steps on a condition variable, and a step
+//! whose tasks the caller has already taken does not wait for a helper to
+//! wake.
+//!
+//! Starting a thread costs about 0.2 ms on the shared virtual machines
+//! this was measured on (spawn and join; waking a parked one, 0.01 ms), so
+//! the helpers outlive a call: one process-wide crew serves one call at a
+//! time (a call that finds it busy starts helpers of its own, joined
+//! before it returns). A crew helper left idle for [`IDLE`] returns;
+//! [`stop_crew`] (called by [`crate::release_retained_memory`], and on
+//! Linux when the library is unloaded or the process exits) stops and
+//! joins them all.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Condvar, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
+use std::thread::JoinHandle;
+use std::time::Duration;
 
 use crate::executor::Executor;
 
-/// A batch's task with its lifetime erased; see [`Helpers::run`] for why
+/// How long a crew helper waits for work before it returns.
+const IDLE: Duration = Duration::from_secs(1);
+
+/// A batch's task with its lifetime erased; see [`Lease::run`] for why
 /// the helpers never call it after the batch returned.
 #[derive(Clone, Copy)]
 struct Job {
@@ -25,7 +38,7 @@ struct Job {
 
 // SAFETY: the task is `Sync` (shared by reference between threads), and
 // the pointer is dereferenced only while the batch that published it is
-// still running (see `Helpers::run`).
+// still running (see `Lease::run`).
 unsafe impl Send for Job {}
 
 /// What the helpers and the calling thread share, under one lock.
@@ -37,14 +50,20 @@ struct State {
     batch: u64,
     /// Helpers working on the current batch.
     running: usize,
-    /// Set when the call is over: the helpers return.
+    /// How many helpers may join a batch (the call's threads less one).
+    seats: usize,
+    /// Helper threads started and not yet returned.
+    alive: usize,
+    /// Whether a call is using the crew (its helpers then stay).
+    leased: bool,
+    /// Set to make every helper return.
     stop: bool,
 }
 
-/// The executor handed to the extraction: the calling thread plus
-/// `threads - 1` helpers.
-pub(crate) struct Helpers {
-    threads: usize,
+/// A set of helper threads, and the batch they work on.
+struct Crew {
+    /// How long a helper waits for work before it returns.
+    idle: Duration,
     state: Mutex<State>,
     /// Signals a new batch (or the stop) to the helpers.
     wake: Condvar,
@@ -52,9 +71,22 @@ pub(crate) struct Helpers {
     done: Condvar,
     /// The next task index of the current batch not yet taken.
     next: AtomicUsize,
+    /// The helpers' threads, joined by [`Crew::stop`].
+    handles: Mutex<Vec<JoinHandle<()>>>,
 }
 
-impl Helpers {
+impl Crew {
+    fn new(idle: Duration) -> Self {
+        Crew {
+            idle,
+            state: Mutex::default(),
+            wake: Condvar::new(),
+            done: Condvar::new(),
+            next: AtomicUsize::new(0),
+            handles: Mutex::default(),
+        }
+    }
+
     fn lock(&self) -> MutexGuard<'_, State> {
         // Tasks never panic (the extraction catches their panics), so the
         // lock is never poisoned; the guard is taken over anyway.
@@ -74,24 +106,34 @@ impl Helpers {
         }
     }
 
-    /// A helper's life: join every batch published, until the stop.
-    fn serve(&self) {
-        let mut seen = 0;
+    /// A helper's life: join the batches published while it has a seat,
+    /// until the stop, or until it waited `idle` while no call used the
+    /// crew.
+    fn serve(&self, mut seen: u64) {
         loop {
             let job = {
                 let mut s = self.lock();
                 loop {
                     if s.stop {
+                        s.alive -= 1;
                         return;
                     }
                     if s.batch != seen {
                         seen = s.batch;
-                        if let Some(job) = s.job {
+                        if let Some(job) = s.job.filter(|_| s.running < s.seats) {
                             s.running += 1;
                             break job;
                         }
                     }
-                    s = self.wake.wait(s).unwrap_or_else(|e| e.into_inner());
+                    let (g, wait) = self
+                        .wake
+                        .wait_timeout(s, self.idle)
+                        .unwrap_or_else(|e| e.into_inner());
+                    s = g;
+                    if wait.timed_out() && !s.leased && s.batch == seen && !s.stop {
+                        s.alive -= 1;
+                        return;
+                    }
                 }
             };
             self.drain(job);
@@ -102,9 +144,62 @@ impl Helpers {
             }
         }
     }
+
+    /// Makes sure `helpers` helpers are alive (as many as can start) and
+    /// marks the crew as used by a call with that many seats.
+    fn lease(self: &Arc<Self>, helpers: usize) {
+        let mut handles = self.handles.lock().unwrap_or_else(|e| e.into_inner());
+        // Helpers that returned while idle.
+        handles.retain(|h| !h.is_finished());
+        let mut s = self.lock();
+        s.leased = true;
+        s.seats = helpers;
+        while s.alive < helpers {
+            let (crew, seen) = (Arc::clone(self), s.batch);
+            let started = if spawn_fails() {
+                Err(std::io::Error::other("no threads (test)"))
+            } else {
+                std::thread::Builder::new()
+                    .name("precisemc-helper".into())
+                    .spawn(move || crew.serve(seen))
+            };
+            match started {
+                Ok(h) => {
+                    handles.push(h);
+                    s.alive += 1;
+                }
+                // A helper that cannot start leaves its share to the others.
+                Err(_) => break,
+            }
+        }
+    }
+
+    /// Ends a call's use of the crew.
+    fn release(&self) {
+        let mut s = self.lock();
+        s.leased = false;
+        s.seats = 0;
+    }
+
+    /// Makes every helper return, and joins them.
+    fn stop(&self) {
+        self.lock().stop = true;
+        self.wake.notify_all();
+        let handles = std::mem::take(&mut *self.handles.lock().unwrap_or_else(|e| e.into_inner()));
+        for h in handles {
+            let _ = h.join();
+        }
+    }
 }
 
-impl Executor for Helpers {
+/// The executor handed to the extraction: the calling thread plus the
+/// crew's helpers, `threads` workers in all.
+pub(crate) struct Lease<'a> {
+    crew: &'a Crew,
+    threads: usize,
+}
+
+impl Executor for Lease<'_> {
     fn concurrency(&self) -> usize {
         self.threads
     }
@@ -113,71 +208,133 @@ impl Executor for Helpers {
         if n == 0 {
             return;
         }
+        let crew = self.crew;
         // SAFETY (of the erased lifetime): the batch is withdrawn below
         // before this call returns, and the call waits until every helper
         // that joined it has finished, so `task` is never called after it
         // is gone.
         let task: &(dyn Fn(usize) + Sync + 'static) = unsafe { std::mem::transmute(task) };
         let job = Job { task, n };
-        self.next.store(0, Ordering::Relaxed);
+        crew.next.store(0, Ordering::Relaxed);
         if n > 1 {
-            let mut s = self.lock();
+            let mut s = crew.lock();
             s.job = Some(job);
             s.batch += 1;
             drop(s);
-            self.wake.notify_all();
+            crew.wake.notify_all();
         }
-        self.drain(job);
-        let mut s = self.lock();
+        crew.drain(job);
+        let mut s = crew.lock();
         // Helpers that have not woken yet no longer join: every task is
         // taken (by this thread or by a helper that did join).
         s.job = None;
         while s.running > 0 {
-            s = self.done.wait(s).unwrap_or_else(|e| e.into_inner());
+            s = crew.done.wait(s).unwrap_or_else(|e| e.into_inner());
         }
     }
 }
 
-/// Runs `f` with an executor of `threads` workers: the calling thread and
-/// `threads - 1` helpers started now and joined before this returns. A
-/// helper that cannot be started leaves its share to the others.
-pub(crate) fn with_helpers<R>(threads: usize, f: impl FnOnce(&Helpers) -> R) -> R {
-    let helpers = Helpers {
-        threads: threads.max(1),
-        state: Mutex::new(State::default()),
-        wake: Condvar::new(),
-        done: Condvar::new(),
-        next: AtomicUsize::new(0),
-    };
-    std::thread::scope(|scope| {
-        for _ in 1..helpers.threads {
-            let h = &helpers;
-            if std::thread::Builder::new()
-                .name("precisemc-helper".into())
-                .spawn_scoped(scope, move || h.serve())
-                .is_err()
-            {
-                break;
-            }
-        }
-        // Stops the helpers however `f` leaves (the scope then joins them;
-        // a panic of `f` goes on up after that).
-        struct Stop<'a>(&'a Helpers);
-        impl Drop for Stop<'_> {
-            fn drop(&mut self) {
-                self.0.lock().stop = true;
-                self.0.wake.notify_all();
-            }
-        }
-        let _stop = Stop(&helpers);
-        f(&helpers)
-    })
+#[cfg(test)]
+thread_local! {
+    /// Makes this thread's calls start no helper (tests of the fallbacks).
+    pub(crate) static SPAWN_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
+
+/// Whether helpers fail to start on this thread (tests only).
+fn spawn_fails() -> bool {
+    #[cfg(test)]
+    return SPAWN_FAILS.with(|f| f.get());
+    #[cfg(not(test))]
+    false
+}
+
+/// The process-wide crew, with the id of the process that started it (a
+/// child made by `fork` has none of its threads: it starts its own).
+static CREW: Mutex<Option<(u32, Arc<Crew>)>> = Mutex::new(None);
+
+/// Runs `f` with an executor of `threads` workers: the calling thread and
+/// `threads - 1` helpers, the process's crew when no other call is using
+/// it, else helpers started now and joined before this returns. A helper that cannot be started
+/// leaves its share to the others (the calling thread at least).
+pub(crate) fn with_helpers<R>(threads: usize, f: impl FnOnce(&Lease<'_>) -> R) -> R {
+    let threads = threads.max(1);
+    let mut slot = match CREW.try_lock() {
+        _ if spawn_fails() => None,
+        Ok(g) => Some(g),
+        Err(TryLockError::Poisoned(e)) => Some(e.into_inner()),
+        Err(TryLockError::WouldBlock) => None,
+    };
+    let crew = match slot.as_deref_mut() {
+        Some(slot) => {
+            let pid = std::process::id();
+            if slot.as_ref().map_or(true, |(p, _)| *p != pid) {
+                *slot = Some((pid, Arc::new(Crew::new(IDLE))));
+            }
+            slot.as_ref().map(|(_, c)| Arc::clone(c))
+        }
+        None => None,
+    };
+    let own = crew.is_none();
+    let crew = crew.unwrap_or_else(|| Arc::new(Crew::new(IDLE)));
+    // Ends the lease (or stops the call's own helpers) however `f` leaves.
+    struct End<'a>(&'a Crew, bool);
+    impl Drop for End<'_> {
+        fn drop(&mut self) {
+            if self.1 {
+                self.0.stop();
+            } else {
+                self.0.release();
+            }
+        }
+    }
+    crew.lease(threads - 1);
+    let _end = End(&crew, own);
+    let r = f(&Lease {
+        crew: &crew,
+        threads,
+    });
+    drop(_end);
+    drop(slot);
+    r
+}
+
+/// Stops and joins the process's crew of helpers, unless a call is using
+/// it. The next call that needs helpers starts them again.
+pub(crate) fn stop_crew() {
+    // Not waiting for a call using the crew: this may be called from
+    // that call's own progress callback. Its helpers return when idle.
+    let crew = match CREW.try_lock() {
+        Ok(mut g) => g.take(),
+        Err(TryLockError::Poisoned(e)) => e.into_inner().take(),
+        Err(TryLockError::WouldBlock) => None,
+    };
+    if let Some((pid, crew)) = crew {
+        if pid == std::process::id() {
+            crew.stop();
+        }
+    }
+}
+
+/// Stops the crew when the library is unloaded or the process exits, so
+/// that no helper runs the library's code after it is gone. Skipped when
+/// a call is using the crew then (a process exiting under a running
+/// extraction: its threads end with it).
+#[cfg(target_os = "linux")]
+#[used]
+#[link_section = ".fini_array"]
+static STOP_AT_UNLOAD: extern "C" fn() = {
+    extern "C" fn stop_at_unload() {
+        stop_crew();
+    }
+    stop_at_unload
+};
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashSet;
     use std::sync::atomic::AtomicU64;
+    use std::thread::ThreadId;
 
     #[test]
     fn every_task_runs_once_in_every_batch() {
@@ -210,5 +367,84 @@ mod tests {
             });
         });
         assert!(ids.into_inner().unwrap().len() > 1);
+    }
+
+    /// Leases `threads - 1` helpers of `crew` for a batch whose tasks wait
+    /// (up to 5 s) until `threads` threads have run one; returns the
+    /// helpers' thread ids.
+    fn busy_helpers(crew: &Arc<Crew>, threads: usize) -> HashSet<ThreadId> {
+        let ids = Mutex::new(HashSet::new());
+        let start = std::time::Instant::now();
+        crew.lease(threads - 1);
+        let lease = Lease { crew, threads };
+        lease.run(4 * threads, &|_| {
+            ids.lock().unwrap().insert(std::thread::current().id());
+            while ids.lock().unwrap().len() < threads && start.elapsed().as_secs() < 5 {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+        });
+        crew.release();
+        let mut ids = ids.into_inner().unwrap();
+        ids.remove(&std::thread::current().id());
+        ids
+    }
+
+    #[test]
+    fn a_crew_keeps_its_helpers_between_calls_until_stopped() {
+        let crew = Arc::new(Crew::new(Duration::from_secs(600)));
+        let first = busy_helpers(&crew, 3);
+        let second = busy_helpers(&crew, 3);
+        assert_eq!(first.len(), 2);
+        assert_eq!(first, second);
+        // A call asking for fewer workers seats fewer of them.
+        assert_eq!(busy_helpers(&crew, 2).len(), 1);
+        assert_eq!(crew.lock().alive, 2);
+        crew.stop();
+        assert_eq!(crew.lock().alive, 0);
+        assert!(crew.handles.lock().unwrap().is_empty());
+    }
+
+    #[test]
+    fn idle_helpers_return_and_others_start_for_the_next_call() {
+        let crew = Arc::new(Crew::new(Duration::from_millis(20)));
+        let first = busy_helpers(&crew, 2);
+        assert_eq!(first.len(), 1);
+        let start = std::time::Instant::now();
+        while crew.lock().alive > 0 && start.elapsed().as_secs() < 5 {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert_eq!(crew.lock().alive, 0);
+        // Thread ids are never reused: a new thread ran the next batch.
+        let second = busy_helpers(&crew, 2);
+        assert_eq!(second.len(), 1);
+        assert!(first.is_disjoint(&second));
+        crew.stop();
+        assert!(crew.handles.lock().unwrap().is_empty());
+    }
+
+    #[test]
+    fn calls_at_once_each_get_helpers_and_run_every_task() {
+        // Each call holds its helpers until the other has started (up to
+        // 5 s): at most one has the crew, the other starts its own.
+        let started = AtomicUsize::new(0);
+        let start = std::time::Instant::now();
+        std::thread::scope(|scope| {
+            for _ in 0..2 {
+                scope.spawn(|| {
+                    with_helpers(2, |h| {
+                        started.fetch_add(1, Ordering::SeqCst);
+                        while started.load(Ordering::SeqCst) < 2 && start.elapsed().as_secs() < 5 {
+                            std::thread::sleep(Duration::from_millis(1));
+                        }
+                        let counts: Vec<AtomicU64> = (0..500).map(|_| AtomicU64::new(0)).collect();
+                        h.run(500, &|i| {
+                            counts[i].fetch_add(1, Ordering::Relaxed);
+                        });
+                        assert!(counts.iter().all(|c| c.load(Ordering::Relaxed) == 1));
+                    });
+                });
+            }
+        });
+        assert_eq!(started.load(Ordering::SeqCst), 2);
     }
 }

@@ -99,11 +99,14 @@ pub struct Options {
     pub max_triangles: u64,
     /// The most worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
+    /// The calling thread works beside `threads - 1` helper threads, which
+    /// are kept between calls (parked; each returns after 1 s without
+    /// work, and [`crate::release_retained_memory`] stops them at once).
     /// Plain Marching Cubes (no refinement) of a volume under 524 288
-    /// cells runs on the calling thread alone: starting a helper thread
-    /// costs more than it saves there. Where threads cannot be started
-    /// (a limit on threads), the call runs on those that did start, the
-    /// calling thread at least.
+    /// cells runs on the calling thread alone: handing work to a helper
+    /// and joining the slabs costs more than it saves there. Where
+    /// threads cannot be started (a limit on threads), the call runs on
+    /// those that did start, the calling thread at least.
     pub threads: usize,
     /// The filter refinement follows. Default [`Reconstruction::Trilinear`].
     pub reconstruction: Reconstruction,

@@ -1,10 +1,8 @@
-//! Where the parallel steps of one extraction run: on its scoped thread
-//! pool, on an [`Executor`] (a host's, or the helper threads of
-//! `crate::helpers`), or all on the calling thread. Starting
-//! and joining a pool thread, and handing work to it and back, costs about
-//! 0.1 ms a call: more than contouring a small volume. Whichever runs
-//! them, the steps produce the same values in the same order, so the
-//! output does not depend on the choice.
+//! Where the parallel steps of one extraction run: on an [`Executor`] (a
+//! host's, or the helper threads of `crate::helpers` next to the calling
+//! thread), or all on the calling thread. Whichever runs them, the steps
+//! produce the same values in the same order, so the output does not
+//! depend on the choice.
 
 use std::any::Any;
 use std::cell::{Cell, UnsafeCell};
@@ -12,8 +10,7 @@ use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 use std::sync::Mutex;
 use std::thread::ThreadId;
-
-use rayon::prelude::*;
+use std::time::{Duration, Instant};
 
 use crate::executor::Executor;
 use crate::Error;
@@ -23,9 +20,8 @@ use crate::Error;
 pub(crate) enum Exec<'p> {
     /// Every step on the calling thread, in order.
     Serial,
-    /// Steps split over the workers of this pool.
-    Pool(&'p rayon::ThreadPool),
-    /// Steps handed to the host's executor, one task per item or chunk.
+    /// Steps handed to an executor (the host's, or helper threads next to
+    /// the calling thread), one task per item or chunk.
     External(&'p dyn Executor),
 }
 
@@ -40,7 +36,6 @@ impl Exec<'_> {
     {
         match self {
             Exec::Serial => Ok(items.into_iter().map(f).collect()),
-            Exec::Pool(pool) => Ok(pool.install(|| items.into_par_iter().map(f).collect())),
             Exec::External(ex) => run_external(ex, items, &f, None),
         }
     }
@@ -74,7 +69,6 @@ impl Exec<'_> {
     {
         match self {
             Exec::Serial => dst.extend(src.iter().map(f)),
-            Exec::Pool(pool) => pool.install(|| dst.par_extend(src.par_iter().map(f))),
             Exec::External(ex) => {
                 let len = chunk_len(src.len(), ex);
                 fill_spare(ex, dst, src.len(), len, |out, start| {
@@ -95,9 +89,6 @@ impl Exec<'_> {
     {
         match self {
             Exec::Serial => dst.resize(dst.len() + n, T::default()),
-            Exec::Pool(pool) => {
-                pool.install(|| dst.par_extend(rayon::iter::repeat_n(T::default(), n)))
-            }
             Exec::External(ex) => fill_spare(ex, dst, n, chunk_len(n, ex), |out, _| {
                 for w in out {
                     w.write(T::default());
@@ -174,6 +165,10 @@ pub(crate) struct OnCaller<'a> {
     owner: ThreadId,
     busy: Cell<bool>,
     f: UnsafeCell<&'a mut dyn FnMut()>,
+    /// The least time between two calls of `f` (zero: every poll).
+    every: Duration,
+    /// When `f` was last called.
+    last: Cell<Option<Instant>>,
 }
 
 // SAFETY: `busy` and `f` are touched only by `poll` on the owner thread
@@ -183,19 +178,36 @@ unsafe impl Sync for OnCaller<'_> {}
 
 impl<'a> OnCaller<'a> {
     /// Wraps `f` for the current thread.
+    #[cfg(test)]
     pub(crate) fn new(f: &'a mut dyn FnMut()) -> Self {
+        Self::every(f, Duration::ZERO)
+    }
+
+    /// Wraps `f` for the current thread, to be called at most once every
+    /// `every` (polls in between do nothing).
+    pub(crate) fn every(f: &'a mut dyn FnMut(), every: Duration) -> Self {
         OnCaller {
             owner: std::thread::current().id(),
             busy: Cell::new(false),
             f: UnsafeCell::new(f),
+            every,
+            last: Cell::new(None),
         }
     }
 
     /// Calls the callback if this is the thread that made it (and it is
-    /// not already running); otherwise does nothing.
+    /// not already running, nor called less than `every` ago); otherwise
+    /// does nothing.
     pub(crate) fn poll(&self) {
         if std::thread::current().id() != self.owner || self.busy.get() {
             return;
+        }
+        if !self.every.is_zero() {
+            let now = Instant::now();
+            if self.last.get().is_some_and(|t| now - t < self.every) {
+                return;
+            }
+            self.last.set(Some(now));
         }
         self.busy.set(true);
         // SAFETY: on the owner thread and not re-entered (see above).
@@ -285,25 +297,23 @@ pub(crate) mod tests {
     use super::*;
 
     #[test]
-    fn both_executors_give_the_same_values_in_order() {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(3)
-            .build()
-            .unwrap();
+    fn every_executor_gives_the_same_values_in_order() {
         let src: Vec<u64> = (0..10_000).map(|i| i * 7919 % 10_007).collect();
         let mut out = Vec::new();
         let ex = Scrambled {
             threads: 3,
             seed: 7,
         };
-        for exec in [Exec::Serial, Exec::Pool(&pool), Exec::External(&ex)] {
-            let mapped = exec.map(src.clone(), |x| x * x + 1).unwrap();
-            let mut extended = vec![5u64];
-            exec.extend(&mut extended, &src, |&x| x ^ 0x55).unwrap();
-            let mut filled = vec![9u32];
-            exec.fill_default(&mut filled, 1000).unwrap();
-            out.push((mapped, extended, filled));
-        }
+        crate::helpers::with_helpers(3, |helpers| {
+            for exec in [Exec::Serial, Exec::External(helpers), Exec::External(&ex)] {
+                let mapped = exec.map(src.clone(), |x| x * x + 1).unwrap();
+                let mut extended = vec![5u64];
+                exec.extend(&mut extended, &src, |&x| x ^ 0x55).unwrap();
+                let mut filled = vec![9u32];
+                exec.fill_default(&mut filled, 1000).unwrap();
+                out.push((mapped, extended, filled));
+            }
+        });
         assert_eq!(out[0], out[1]);
         assert_eq!(out[0], out[2]);
         assert_eq!(out[0].0[3], src[3] * src[3] + 1);

@@ -32,10 +32,13 @@ const PER_BIN: usize = 16;
 static RETAINED: AtomicUsize = AtomicUsize::new(0);
 
 /// Frees every buffer kept for reuse between extractions (see the module
-/// documentation); returns the bytes released. Thread-safe; extractions
-/// running meanwhile are not affected. Useful after a burst of
-/// extractions, before a long phase that needs the memory elsewhere.
+/// documentation), and stops the helper threads kept between extractions
+/// while no extraction uses them; returns the bytes of buffers released.
+/// Thread-safe; extractions running meanwhile are not affected. Useful
+/// after a burst of extractions, before a long phase that needs the
+/// memory elsewhere.
 pub fn release_retained_memory() -> usize {
+    crate::helpers::stop_crew();
     POINTS.release()
         + SLAB_TRIS.release()
         + LEVELS.release()

@@ -58,6 +58,9 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     pub cancel: &'c AtomicBool,
     /// Nodes visited since the stop request was last read.
     pub polls: u32,
+    /// Called with each read of the stop request (the extraction's progress
+    /// report, which may ask to stop, when this runs on the calling thread).
+    pub tick: Option<&'c (dyn Fn() + Sync)>,
 }
 
 /// Nodes between two reads of [`Refiner::cancel`] (a few milliseconds of
@@ -886,6 +889,9 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         self.polls += 1;
         if self.polls == CANCEL_POLL {
             self.polls = 0;
+            if let Some(tick) = self.tick {
+                tick();
+            }
             if self.cancel.load(Ordering::Relaxed) {
                 return false;
             }

@@ -378,8 +378,8 @@ pub unsafe extern "C" fn pmc_options_set_progress(
 
 /// Lends the host's thread pool to later extractions with these options
 /// (see `pmc_executor_fn`): their parallel steps become tasks of
-/// `executor` instead of running on threads `pmc_extract` starts and
-/// joins, and the thread count (`pmc_options_set_threads`) is not used:
+/// `executor` instead of running on the library's own helper threads,
+/// and the thread count (`pmc_options_set_threads`) is not used:
 /// the volume is cut for `concurrency` workers, the number of tasks the
 /// host runs at once. `executor = NULL` clears it (the default: threads of
 /// the extraction's own). The output does not depend on it.

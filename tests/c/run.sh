@@ -115,6 +115,10 @@ for p in "${PROGRAMS[@]}"; do
         "$ROOT/tests/c/$p.c" "${SHARED[@]}"
     [[ -x $OUT/bin/$p ]] && run_test "run_$p" "$OUT/bin/$p"
 done
+# Unloading after extractions on helper threads (dlopen, shared library only).
+run_test build_test_unload build "$OUT/bin/test_unload" gcc "${CWARN[@]}" -O1 -g "${INC[@]}" \
+    "$ROOT/tests/c/test_unload.c" -ldl -lm -pthread
+[[ -x $OUT/bin/test_unload ]] && run_test run_test_unload "$OUT/bin/test_unload" "$LIB_DIR/libprecisemc.so"
 run_test build_test_cxx build "$OUT/bin/test_cxx" g++ "${CXXWARN[@]}" -O1 -g "${INC[@]}" \
     "$ROOT/tests/c/test_cxx.cpp" "${SHARED[@]}"
 [[ -x $OUT/bin/test_cxx ]] && run_test run_test_cxx "$OUT/bin/test_cxx"
@@ -136,9 +140,9 @@ unset ASAN_OPTIONS UBSAN_OPTIONS
 
 # --- 3. valgrind, static library ------------------------------------------------------
 if [[ ${PMC_SKIP_VALGRIND:-0} != 1 ]]; then
-    # "Possibly lost" blocks are reported but not errors: rayon's worker
-    # threads finish exiting after pmc_extract returns, and those still
-    # running at process exit hold their thread-local blocks.
+    # "Possibly lost" blocks are reported but not errors: the library's
+    # helper threads outlive pmc_extract (parked for reuse), and those
+    # still alive at process exit hold their thread-local blocks.
     VG=(valgrind --leak-check=full --errors-for-leak-kinds=definite,indirect
         --error-exitcode=1 --quiet)
     for p in "${PROGRAMS[@]}"; do

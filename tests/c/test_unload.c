@@ -1,0 +1,126 @@
+/*
+ * Unloading the library after extractions on several threads. The helper
+ * threads the library keeps between calls must never run its code after
+ * dlclose has unmapped it: the library stops and joins them when it is
+ * unloaded (or glibc keeps it mapped while they live). Extracts with 2
+ * threads (plain and refined), dlcloses, checks that either the library
+ * is still mapped or none of its helper threads is left, waits past the
+ * helpers' idle time (a helper left in unmapped code would crash when its
+ * wait ends), then loads it again and extracts again.
+ *
+ * Usage: test_unload PATH_OF_libprecisemc.so
+ */
+#define _DEFAULT_SOURCE /* realpath, dirent under -std=c99 */
+#include <dirent.h>
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include "common.h"
+
+typedef pmc_status (*extract_fn)(const pmc_volume *, double, const pmc_options *, pmc_mesh **);
+typedef pmc_options *(*options_new_fn)(void);
+typedef void (*options_free_fn)(pmc_options *);
+typedef pmc_status (*set_u32_fn)(pmc_options *, uint32_t);
+typedef pmc_status (*set_f64_fn)(pmc_options *, double);
+typedef pmc_status (*mesh_stats_fn)(const pmc_mesh *, pmc_stats *);
+typedef void (*mesh_free_fn)(pmc_mesh *);
+
+/* Threads of this process whose name starts with "precisemc". */
+static int helper_threads(void) {
+    int n = 0;
+    DIR *d = opendir("/proc/self/task");
+    struct dirent *e;
+    if (!d) return -1;
+    while ((e = readdir(d)) != NULL) {
+        char path[300], name[64] = {0};
+        FILE *f;
+        if (e->d_name[0] == '.') continue;
+        snprintf(path, sizeof path, "/proc/self/task/%s/comm", e->d_name);
+        f = fopen(path, "r");
+        if (!f) continue;
+        if (fgets(name, sizeof name, f) && strncmp(name, "precisemc", 9) == 0) n++;
+        fclose(f);
+    }
+    closedir(d);
+    return n;
+}
+
+/* Whether a mapping of the file `path` is in this process. */
+static int mapped(const char *path) {
+    char line[4096];
+    char real[4096];
+    int found = 0;
+    FILE *f = fopen("/proc/self/maps", "r");
+    if (!f || !realpath(path, real)) {
+        if (f) fclose(f);
+        return -1;
+    }
+    while (fgets(line, sizeof line, f))
+        if (strstr(line, real)) found = 1;
+    fclose(f);
+    return found;
+}
+
+/* Loads the library, extracts twice on 2 threads, unloads it. */
+static void round_trip(const char *path, const pmc_volume *v) {
+    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    CHECK(lib != NULL);
+    if (!lib) {
+        fprintf(stderr, "dlopen: %s\n", dlerror());
+        return;
+    }
+    extract_fn extract = (extract_fn)(uintptr_t)dlsym(lib, "pmc_extract");
+    options_new_fn options_new = (options_new_fn)(uintptr_t)dlsym(lib, "pmc_options_new");
+    options_free_fn options_free = (options_free_fn)(uintptr_t)dlsym(lib, "pmc_options_free");
+    set_u32_fn set_threads = (set_u32_fn)(uintptr_t)dlsym(lib, "pmc_options_set_threads");
+    set_f64_fn set_epsilon = (set_f64_fn)(uintptr_t)dlsym(lib, "pmc_options_set_epsilon");
+    mesh_stats_fn mesh_stats = (mesh_stats_fn)(uintptr_t)dlsym(lib, "pmc_mesh_stats");
+    mesh_free_fn mesh_free = (mesh_free_fn)(uintptr_t)dlsym(lib, "pmc_mesh_free");
+    CHECK(extract && options_new && options_free && set_threads && set_epsilon && mesh_stats &&
+          mesh_free);
+    if (extract && options_new && options_free && set_threads && set_epsilon && mesh_stats &&
+        mesh_free) {
+        for (int refined = 0; refined < 2; refined++) {
+            pmc_options *o = options_new();
+            pmc_mesh *m = NULL;
+            pmc_stats st;
+            CHECK(set_threads(o, 2) == PMC_STATUS_OK);
+            /* Plain Marching Cubes, or refinement (epsilon 0.001). */
+            CHECK(set_epsilon(o, refined ? 0.001 : 0.0) == PMC_STATUS_OK);
+            CHECK(extract(v, 20.5, o, &m) == PMC_STATUS_OK);
+            CHECK(m != NULL);
+            if (m) {
+                CHECK(mesh_stats(m, &st) == PMC_STATUS_OK);
+                CHECK(st.output_triangles > 1000);
+                mesh_free(m);
+            }
+            options_free(o);
+        }
+    }
+    /* The extractions above ran on helper threads (2 threads asked). */
+    CHECK(helper_threads() >= 1);
+    CHECK(dlclose(lib) == 0);
+    int still = mapped(path), helpers = helper_threads();
+    printf("after dlclose: library %s, %d helper thread(s)\n",
+           still ? "still mapped" : "unmapped", helpers);
+    CHECK(still >= 0 && helpers >= 0);
+    /* Unmapped code must have no thread left in it. */
+    CHECK(still || helpers == 0);
+    /* Past the helpers' idle time (1 s): a helper in unmapped code would
+     * crash now; the idle ones have returned. */
+    sleep(2);
+    CHECK(helper_threads() == 0);
+}
+
+int main(int argc, char **argv) {
+    if (argc < 2) {
+        fprintf(stderr, "usage: %s PATH_OF_libprecisemc.so\n", argv[0]);
+        return 2;
+    }
+    /* 96^3 cells: plain Marching Cubes on 2 threads starts a helper. */
+    pmc_volume v = make_sphere(97, PMC_SCALAR_TYPE_F32, 1.0);
+    round_trip(argv[1], &v);
+    round_trip(argv[1], &v);
+    free((void *)v.data);
+    return test_finish("test_unload");
+}
