@@ -1,18 +1,22 @@
 /*
- * Unloading the library after extractions on several threads. The helper
- * threads the library keeps between calls must never run its code after
- * dlclose has unmapped it: the library stops and joins them when it is
- * unloaded (or glibc keeps it mapped while they live). Extracts with 2
- * threads (plain and refined), dlcloses, checks that either the library
- * is still mapped or none of its helper threads is left, waits past the
- * helpers' idle time (a helper left in unmapped code would crash when its
- * wait ends), then loads it again and extracts again.
+ * Unloading the library, and forking, after extractions on several
+ * threads. The helper threads the library keeps between calls must never
+ * run its code after dlclose has unmapped it: the library stops and joins
+ * them when it is unloaded (or glibc keeps it mapped while they live).
+ * Extracts with 2 threads (plain and refined), forks a child that
+ * extracts again (it has none of the parent's helper threads: it must
+ * start its own, not wait for them), dlcloses, checks that either the
+ * library is still mapped or none of its helper threads is left, waits
+ * past the helpers' idle time (a helper left in unmapped code would crash
+ * when its wait ends), then loads it again and does it all again.
  *
  * Usage: test_unload PATH_OF_libprecisemc.so
  */
-#define _DEFAULT_SOURCE /* realpath, dirent under -std=c99 */
+#define _DEFAULT_SOURCE /* realpath, dirent, fork under -std=c99 */
 #include <dirent.h>
 #include <dlfcn.h>
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "common.h"
@@ -61,7 +65,39 @@ static int mapped(const char *path) {
     return found;
 }
 
-/* Loads the library, extracts twice on 2 threads, unloads it. */
+/* Refined extractions on 2 threads in a child process; whether it exited
+ * with 0 (all succeeded) within 60 s. */
+static int child_extracts(extract_fn extract, options_new_fn options_new,
+                          options_free_fn options_free, set_u32_fn set_threads,
+                          mesh_free_fn mesh_free, const pmc_volume *v) {
+    pid_t pid = fork();
+    if (pid < 0) return 0;
+    if (pid == 0) {
+        int ok = 1;
+        for (int i = 0; i < 3; i++) {
+            pmc_options *o = options_new();
+            pmc_mesh *m = NULL;
+            ok &= set_threads(o, 2) == PMC_STATUS_OK;
+            ok &= extract(v, 20.5, o, &m) == PMC_STATUS_OK && m != NULL;
+            if (m) mesh_free(m);
+            options_free(o);
+        }
+        _exit(ok ? 0 : 1);
+    }
+    for (int waited = 0; waited < 6000; waited++) {
+        int status;
+        if (waitpid(pid, &status, WNOHANG) == pid)
+            return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+        usleep(10000);
+    }
+    fprintf(stderr, "the forked child hangs\n");
+    kill(pid, SIGKILL);
+    waitpid(pid, NULL, 0);
+    return 0;
+}
+
+/* Loads the library, extracts twice on 2 threads, forks a child that
+ * extracts, unloads the library. */
 static void round_trip(const char *path, const pmc_volume *v) {
     void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
     CHECK(lib != NULL);
@@ -99,6 +135,8 @@ static void round_trip(const char *path, const pmc_volume *v) {
     }
     /* The extractions above ran on helper threads (2 threads asked). */
     CHECK(helper_threads() >= 1);
+    if (extract && options_new && options_free && set_threads && mesh_free)
+        CHECK(child_extracts(extract, options_new, options_free, set_threads, mesh_free, v));
     CHECK(dlclose(lib) == 0);
     int still = mapped(path), helpers = helper_threads();
     printf("after dlclose: library %s, %d helper thread(s)\n",
