@@ -140,8 +140,10 @@ public:
    * the filter, so that the next execution writes into memory already
    * mapped instead of faulting fresh pages in. Call this after a burst of
    * executions when the memory is wanted elsewhere; the next execution
-   * then runs on fresh memory, with the same output. Thread-safe:
-   * executions running meanwhile are not affected.
+   * then runs on fresh memory, with the same output. Also stops the
+   * helper threads the library keeps between executions (each returns by
+   * itself after 1 s without work) unless an execution is using them.
+   * Thread-safe: executions running meanwhile are not affected.
    */
   static vtkTypeUInt64 ReleaseRetainedMemory();
 
