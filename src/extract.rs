@@ -123,16 +123,18 @@ pub fn extract_with_progress(
 }
 
 /// Like [`extract_with_progress`], with the parallel steps run as tasks of
-/// the host's `executor` instead of on threads the extraction starts (see
-/// [`Executor`]); [`Options::threads`] is then not used: the volume is cut
+/// the host's `executor` instead of on the library's own helper threads
+/// (see [`Executor`]); [`Options::threads`] is then not used: the volume is cut
 /// for [`Executor::concurrency`] workers. The output is bit-identical to
 /// [`extract`]'s.
 ///
 /// `progress` is still called only on the calling thread: while a pass
-/// runs, after each task the executor happens to run on it (a pool that
-/// lets the calling thread work, as TBB's does, reports a few times a
-/// pass; one that does not reports only between passes). Cancelling
-/// takes effect at the next layer of cells of every running task.
+/// runs, at most every 20 ms, between the cell layers, refined cells and
+/// refinement steps of the tasks the executor happens to run on it (a
+/// pool that lets the calling thread work, as TBB's does, reports
+/// throughout a pass; one that does not reports only between passes).
+/// Cancelling takes effect at the next layer of cells of every running
+/// task.
 pub fn extract_with_executor(
     volume: &Volume<'_>,
     isovalue: f64,
