@@ -98,7 +98,8 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// `progress(fraction)` is called on the calling thread, first with 0.0,
 /// then at most every 20 ms while the work runs (the calling thread works
 /// too, and reports between its cell layers, refined cells and every few
-/// thousand refinement steps), and last with 1.0 on success. (Plain
+/// thousand refinement steps, and while it waits for the helper threads
+/// to finish theirs), and last with 1.0 on success. (Plain
 /// Marching Cubes of up to 4 Mi cells on one thread, a few milliseconds
 /// of work, runs with no call in between.)
 /// Returning `ControlFlow::Break(())` stops the extraction once each
@@ -502,7 +503,7 @@ fn run<T: Scalar>(
     // The calling thread works next to `threads - 1` helper threads (kept
     // between calls: see `helpers`), and reports progress after each
     // layer of cells it contours.
-    with_helpers(threads, |h| run_on(Exec::External(h)))
+    with_helpers(threads, |h| run_on(Exec::Helpers(h)))
 }
 
 /// One extraction on `exec`: Marching Cubes on `grid`'s samples, then

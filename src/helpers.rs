@@ -205,6 +205,27 @@ impl Executor for Lease<'_> {
     }
 
     fn run(&self, n: usize, task: &(dyn Fn(usize) + Sync)) {
+        self.run_waiting(n, task, None);
+    }
+}
+
+/// How often the calling thread, its share of a batch done, calls the
+/// `waiting` hook of [`Lease::run_waiting`] while helpers finish theirs.
+const WAITING_EVERY: Duration = Duration::from_millis(10);
+
+impl Lease<'_> {
+    /// [`Executor::run`], calling `waiting` on this thread about every
+    /// [`WAITING_EVERY`] while it waits for helpers to finish their tasks
+    /// (the extraction's progress report, which may ask to stop: a helper
+    /// can take far longer over one slab than the calling thread over all
+    /// of its own). `waiting` must not unwind: the helpers may still be
+    /// running `task`.
+    pub(crate) fn run_waiting(
+        &self,
+        n: usize,
+        task: &(dyn Fn(usize) + Sync),
+        waiting: Option<&dyn Fn()>,
+    ) {
         if n == 0 {
             return;
         }
@@ -229,7 +250,22 @@ impl Executor for Lease<'_> {
         // taken (by this thread or by a helper that did join).
         s.job = None;
         while s.running > 0 {
-            s = crew.done.wait(s).unwrap_or_else(|e| e.into_inner());
+            s = match waiting {
+                None => crew.done.wait(s).unwrap_or_else(|e| e.into_inner()),
+                Some(waiting) => {
+                    let (g, wait) = crew
+                        .done
+                        .wait_timeout(s, WAITING_EVERY)
+                        .unwrap_or_else(|e| e.into_inner());
+                    if wait.timed_out() && g.running > 0 {
+                        drop(g);
+                        waiting();
+                        crew.lock()
+                    } else {
+                        g
+                    }
+                }
+            };
         }
     }
 }
@@ -446,5 +482,47 @@ mod tests {
             }
         });
         assert_eq!(started.load(Ordering::SeqCst), 2);
+    }
+
+    #[test]
+    fn the_calling_thread_reports_while_it_waits_for_helpers() {
+        // The calling thread's task waits (up to 5 s) until a helper has
+        // started the other, which takes 300 ms: the calling thread waits
+        // that long for it, calling `waiting` meanwhile, itself only.
+        let crew = Arc::new(Crew::new(Duration::from_secs(600)));
+        crew.lease(1);
+        let lease = Lease {
+            crew: &crew,
+            threads: 2,
+        };
+        let caller = std::thread::current().id();
+        let helper_started = std::sync::atomic::AtomicBool::new(false);
+        let elsewhere = std::sync::atomic::AtomicBool::new(false);
+        let calls = AtomicUsize::new(0);
+        let start = std::time::Instant::now();
+        lease.run_waiting(
+            2,
+            &|_| {
+                if std::thread::current().id() != caller {
+                    helper_started.store(true, Ordering::SeqCst);
+                    std::thread::sleep(Duration::from_millis(300));
+                }
+                while !helper_started.load(Ordering::SeqCst) && start.elapsed().as_secs() < 5 {
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            },
+            Some(&|| {
+                if std::thread::current().id() != caller {
+                    elsewhere.store(true, Ordering::SeqCst);
+                }
+                calls.fetch_add(1, Ordering::SeqCst);
+            }),
+        );
+        crew.release();
+        crew.stop();
+        assert!(helper_started.into_inner());
+        assert!(!elsewhere.into_inner());
+        // About 30 (every 10 ms of the 300), however loaded the machine.
+        assert!(calls.into_inner() >= 3);
     }
 }

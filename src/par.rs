@@ -13,6 +13,7 @@ use std::thread::ThreadId;
 use std::time::{Duration, Instant};
 
 use crate::executor::Executor;
+use crate::helpers::Lease;
 use crate::Error;
 
 /// The executor of an extraction's parallel steps.
@@ -23,6 +24,10 @@ pub(crate) enum Exec<'p> {
     /// Steps handed to an executor (the host's, or helper threads next to
     /// the calling thread), one task per item or chunk.
     External(&'p dyn Executor),
+    /// Steps handed to the library's helper threads next to the calling
+    /// thread: as [`Exec::External`], and the calling thread keeps calling
+    /// [`Exec::map_polling`]'s `poll` while it waits for the helpers.
+    Helpers(&'p Lease<'p>),
 }
 
 impl Exec<'_> {
@@ -37,6 +42,7 @@ impl Exec<'_> {
         match self {
             Exec::Serial => Ok(items.into_iter().map(f).collect()),
             Exec::External(ex) => run_external(ex, items, &f, None),
+            Exec::Helpers(h) => Exec::External(h).map(items, f),
         }
     }
 
@@ -56,7 +62,8 @@ impl Exec<'_> {
     {
         match self {
             Exec::External(ex) => run_external(ex, items, &f, Some(poll)),
-            _ => self.map(items, f),
+            Exec::Helpers(h) => run_external(Runner::Helpers(h), items, &f, Some(poll)),
+            Exec::Serial => self.map(items, f),
         }
     }
 
@@ -68,6 +75,7 @@ impl Exec<'_> {
         F: Fn(&T) -> R + Sync + Send,
     {
         match self {
+            Exec::Helpers(h) => return Exec::External(h).extend(dst, src, f),
             Exec::Serial => dst.extend(src.iter().map(f)),
             Exec::External(ex) => {
                 let len = chunk_len(src.len(), ex);
@@ -88,6 +96,7 @@ impl Exec<'_> {
         T: Default + Clone + Send + Sync,
     {
         match self {
+            Exec::Helpers(h) => return Exec::External(h).fill_default(dst, n),
             Exec::Serial => dst.resize(dst.len() + n, T::default()),
             Exec::External(ex) => fill_spare(ex, dst, n, chunk_len(n, ex), |out, _| {
                 for w in out {
@@ -216,6 +225,19 @@ impl<'a> OnCaller<'a> {
     }
 }
 
+/// What runs the tasks of [`run_external`].
+#[derive(Clone, Copy)]
+enum Runner<'e> {
+    Any(&'e dyn Executor),
+    Helpers(&'e Lease<'e>),
+}
+
+impl<'e> From<&'e dyn Executor> for Runner<'e> {
+    fn from(ex: &'e dyn Executor) -> Self {
+        Runner::Any(ex)
+    }
+}
+
 /// One item's state in [`run_external`].
 enum Slot<T, R> {
     Todo(T),
@@ -227,8 +249,8 @@ enum Slot<T, R> {
 /// A task's panic is caught in the task (it may run on a foreign thread,
 /// or behind a C function) and raised again here, on the calling thread,
 /// once the executor has returned.
-fn run_external<T: Send, R: Send>(
-    ex: &dyn Executor,
+fn run_external<'e, T: Send, R: Send>(
+    ex: impl Into<Runner<'e>>,
     items: Vec<T>,
     f: &(dyn Fn(T) -> R + Sync),
     poll: Option<&OnCaller<'_>>,
@@ -274,7 +296,24 @@ fn run_external<T: Send, R: Send>(
             }
         }
     };
-    ex.run(total, &task);
+    match (ex.into(), poll) {
+        // The calling thread reports while it waits for the helpers too
+        // (a helper's slab can take seconds after this thread ran out of
+        // work). The report must not unwind while helpers run `task`.
+        (Runner::Helpers(h), Some(p)) => {
+            let waiting = || {
+                if let Err(payload) = catch_unwind(AssertUnwindSafe(|| p.poll())) {
+                    panicked
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .get_or_insert(payload);
+                }
+            };
+            h.run_waiting(total, &task, Some(&waiting));
+        }
+        (Runner::Helpers(h), None) => h.run(total, &task),
+        (Runner::Any(ex), _) => ex.run(total, &task),
+    }
     if let Some(payload) = panicked.into_inner().unwrap_or_else(|e| e.into_inner()) {
         resume_unwind(payload);
     }

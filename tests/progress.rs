@@ -288,3 +288,63 @@ fn phase_times_fit_in_the_total() {
         );
     }
 }
+
+/// Noise on sample plane `k` within `[1, 1 + side)` in x and y (values in
+/// [0, 1), isovalue 0.5), 1.0 elsewhere.
+fn noise_planes(dims: [usize; 3], planes: &[(usize, usize)], seed: u64) -> Vec<f64> {
+    let mut rng = Rng::new(seed);
+    let mut v = vec![1.0; dims[0] * dims[1] * dims[2]];
+    for &(k, side) in planes {
+        for j in 1..1 + side {
+            for i in 1..1 + side {
+                v[(k * dims[1] + j) * dims[0] + i] = rng.f64();
+            }
+        }
+    }
+    v
+}
+
+/// A stop asked for while a helper thread refines a slab and the calling
+/// thread has no work left takes effect promptly: the calling thread keeps
+/// reporting while it waits for the helpers. (It reported only between
+/// its own cells: here, on 2 threads, the callback was not called for the
+/// 13 s a helper refined the heavy slab, and the stop waited for it.)
+#[test]
+fn break_is_prompt_while_a_helper_finishes_a_slab() {
+    // 16 slabs of 2 layers on 2 threads: layer 0 (noise on sample plane
+    // 0, 3x3 samples) is the lighter, taken by the calling thread first;
+    // layers 2 and 3 (noise on plane 3, 8x8 samples) are heavy, and
+    // both in slab 1, which a helper takes meanwhile; the other slabs
+    // have no surface.
+    let dims = [12usize, 12, 33];
+    let v = noise_planes(dims, &[(0, 3), (3, 8)], 5);
+    let vol = Volume::new(&v, dims_u64(dims));
+    let opts = Options {
+        epsilon: 1e-7,
+        max_level: 8,
+        threads: 2,
+        ..Options::default()
+    };
+    let start = std::time::Instant::now();
+    // After the calling thread's slab 0 (0.6 s here), long before the
+    // helper's slab 1 (13 s).
+    let wish = std::time::Duration::from_secs(2);
+    let mut last = start;
+    let mut gap = std::time::Duration::ZERO;
+    let r = extract_with_progress(&vol, 0.5, &opts, &mut |_| {
+        let now = std::time::Instant::now();
+        gap = gap.max(now - last);
+        last = now;
+        if now - start >= wish {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
+    });
+    let took = start.elapsed();
+    assert_eq!(r, Err(Error::Aborted));
+    assert!(
+        took < wish + std::time::Duration::from_secs(2),
+        "returned {took:?} after the start, the stop asked for after {wish:?} (longest gap between calls {gap:?})"
+    );
+}
