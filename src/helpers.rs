@@ -525,4 +525,62 @@ mod tests {
         // About 30 (every 10 ms of the 300), however loaded the machine.
         assert!(calls.into_inner() >= 3);
     }
+
+    /// Batches of every size on crews of every size, helpers that return
+    /// idle (after 0.2 ms) between and during leases, `stop_crew` all the
+    /// while, and calls at once: every task runs once, nothing hangs.
+    #[test]
+    fn batches_survive_idle_returns_stops_and_calls_at_once() {
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        std::thread::scope(|scope| {
+            scope.spawn(|| {
+                while !stop.load(Ordering::Relaxed) {
+                    stop_crew();
+                    std::thread::yield_now();
+                }
+            });
+            let workers: Vec<_> = (0..3)
+                .map(|t| {
+                    let stop = &stop;
+                    scope.spawn(move || {
+                        let crew = Arc::new(Crew::new(Duration::from_micros(200)));
+                        for round in 0..3000usize {
+                            let threads = 1 + (round + t) % 4;
+                            let check = |h: &Lease<'_>| {
+                                for n in [2usize, 3, 7, 1, 33] {
+                                    let counts: Vec<AtomicU64> =
+                                        (0..n).map(|_| AtomicU64::new(0)).collect();
+                                    h.run(n, &|i| {
+                                        counts[i].fetch_add(1, Ordering::Relaxed);
+                                    });
+                                    assert!(counts.iter().all(|c| c.load(Ordering::Relaxed) == 1));
+                                }
+                            };
+                            if t == 0 {
+                                crew.lease(threads - 1);
+                                check(&Lease {
+                                    crew: &crew,
+                                    threads,
+                                });
+                                crew.release();
+                                if round % 7 == 0 {
+                                    std::thread::sleep(Duration::from_micros(
+                                        150 + (round % 5) as u64 * 20,
+                                    ));
+                                }
+                            } else {
+                                with_helpers(threads, check);
+                            }
+                        }
+                        crew.stop();
+                        let _ = stop;
+                    })
+                })
+                .collect();
+            for w in workers {
+                w.join().unwrap();
+            }
+            stop.store(true, Ordering::Relaxed);
+        });
+    }
 }
