@@ -170,7 +170,10 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
         local needed
         needed=$(readelf -d "$1" | sed -n 's/.*(NEEDED).*\[\(libprecisemc[^]]*\)\].*/\1/p')
         [[ $needed == "$SONAME" ]] || { log "$1 needs '$needed', not $SONAME"; return 1; }
-        ldd "$1" | grep -q "$SONAME => /" || { log "$1: $SONAME not found"; return 1; }
+        # grep reads all of ldd's output: `grep -q` stops at the match and
+        # ldd, killed by SIGPIPE, then failed the pipeline (pipefail) now
+        # and then.
+        ldd "$1" | grep "$SONAME => /" >/dev/null || { log "$1: $SONAME not found"; return 1; }
     }
     soname_of() { readelf -d "$1" | sed -n 's/.*(SONAME).*\[\(.*\)\].*/\1/p'; }
     installed_library() {
@@ -192,7 +195,7 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             (cd "$dir" && ctest --output-on-failure) &&
             needs_soname "$dir/consumer_shared" &&
             # The static one must not need libprecisemc.so.
-            ! ldd "$dir/consumer_static" | grep -q libprecisemc
+            ! ldd "$dir/consumer_static" | grep libprecisemc >/dev/null
     }
     run_test cmake_consumer_install consumer install -DCMAKE_PREFIX_PATH="$PREFIX" \
         -DPMC_EXPECTED_VERSION="$version"
@@ -216,7 +219,7 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             libs=$("${pc[@]}" --libs precisemc-static)
             # shellcheck disable=SC2086
             gcc "${CWARN[@]}" $cflags "$ROOT/tests/cmake_consumer/main.c" $libs -o "$exe"
-            ! ldd "$exe" | grep -q libprecisemc || return 1
+            ! ldd "$exe" | grep libprecisemc >/dev/null || return 1
             [[ $("${pc[@]}" --modversion precisemc-static) == "$version" ]] || return 1
         fi
         [[ $("${pc[@]}" --modversion precisemc) == "$version" ]] &&
