@@ -96,10 +96,11 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// Like [`extract`], reporting progress.
 ///
 /// `progress(fraction)` is called on the calling thread, first with 0.0,
-/// then at most every 20 ms while the work runs (the calling thread works
-/// too, and reports between its cell layers, refined cells and every few
-/// thousand refinement steps, and while it waits for the helper threads
-/// to finish theirs), and last with 1.0 on success. (Plain
+/// then while the work runs (the calling thread works too, and reports
+/// after each of its cell layers, and within a layer, at most every
+/// 20 ms, between refined cells, every few thousand refinement steps and
+/// while it waits for the helper threads to finish theirs), and last with
+/// 1.0 on success. (Plain
 /// Marching Cubes of up to 4 Mi cells on one thread, a few milliseconds
 /// of work, runs with no call in between.)
 /// Returning `ControlFlow::Break(())` stops the extraction once each
@@ -130,8 +131,9 @@ pub fn extract_with_progress(
 /// [`extract`]'s.
 ///
 /// `progress` is still called only on the calling thread: while a pass
-/// runs, at most every 20 ms, between the cell layers, refined cells and
-/// refinement steps of the tasks the executor happens to run on it (a
+/// runs, within the tasks the executor happens to run on it (after each
+/// cell layer and, at most every 20 ms, between refined cells and
+/// refinement steps) and after each such task (a
 /// pool that lets the calling thread work, as TBB's does, reports
 /// throughout a pass; one that does not reports only between passes).
 /// Cancelling takes effect at the next layer of cells of every running
@@ -253,7 +255,8 @@ struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     /// (see [`crate::subcells`]).
     subcells: bool,
     /// Reports progress when called on the calling thread (after each
-    /// layer); `None` where nothing is reported until the end.
+    /// layer; within one, at most every [`PROGRESS_EVERY`]); `None` where
+    /// nothing is reported until the end.
     poll: Option<&'a OnCaller<'a>>,
 }
 
@@ -1189,7 +1192,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.counters.per_level[0] += n;
                     out.counters.nodes_per_level[0] += n;
                     if let Some(p) = sh.poll {
-                        p.poll();
+                        p.poll_timed();
                     }
                     if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                         break 'layers;
@@ -1286,7 +1289,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let mut next_id = 16u32;
                     let tick = || {
                         if let Some(p) = sh.poll {
-                            p.poll();
+                            p.poll_timed();
                         }
                     };
                     let mut refiner = Refiner::<F> {
@@ -1474,7 +1477,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     }
                 }
                 if let Some(p) = sh.poll {
-                    p.poll();
+                    p.poll_timed();
                 }
                 if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
                     break 'layers;

@@ -192,8 +192,8 @@ impl<'a> OnCaller<'a> {
         Self::every(f, Duration::ZERO)
     }
 
-    /// Wraps `f` for the current thread, to be called at most once every
-    /// `every` (polls in between do nothing).
+    /// Wraps `f` for the current thread, to be called by
+    /// [`OnCaller::poll_timed`] at most once every `every`.
     pub(crate) fn every(f: &'a mut dyn FnMut(), every: Duration) -> Self {
         OnCaller {
             owner: std::thread::current().id(),
@@ -205,15 +205,24 @@ impl<'a> OnCaller<'a> {
     }
 
     /// Calls the callback if this is the thread that made it (and it is
-    /// not already running, nor called less than `every` ago); otherwise
-    /// does nothing.
+    /// not already running); otherwise does nothing.
     pub(crate) fn poll(&self) {
+        self.call(false);
+    }
+
+    /// [`OnCaller::poll`], unless the callback was called less than
+    /// `every` ago (for polls from within a step, which may come often).
+    pub(crate) fn poll_timed(&self) {
+        self.call(true);
+    }
+
+    fn call(&self, timed: bool) {
         if std::thread::current().id() != self.owner || self.busy.get() {
             return;
         }
         if !self.every.is_zero() {
             let now = Instant::now();
-            if self.last.get().is_some_and(|t| now - t < self.every) {
+            if timed && self.last.get().is_some_and(|t| now - t < self.every) {
                 return;
             }
             self.last.set(Some(now));
@@ -302,7 +311,7 @@ fn run_external<'e, T: Send, R: Send>(
         // work). The report must not unwind while helpers run `task`.
         (Runner::Helpers(h), Some(p)) => {
             let waiting = || {
-                if let Err(payload) = catch_unwind(AssertUnwindSafe(|| p.poll())) {
+                if let Err(payload) = catch_unwind(AssertUnwindSafe(|| p.poll_timed())) {
                     panicked
                         .lock()
                         .unwrap_or_else(|e| e.into_inner())

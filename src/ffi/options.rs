@@ -384,11 +384,12 @@ pub unsafe extern "C" fn pmc_options_set_progress(
 /// host runs at once. `executor = NULL` clears it (the default: threads of
 /// the extraction's own). The output does not depend on it.
 ///
-/// With an executor, the progress callback is called, at most every
-/// 20 ms, within the tasks the executor happens to run on the thread that
-/// called `pmc_extract` (between their cell layers, refined cells and
-/// refinement steps: a pool whose calling thread takes part, as TBB's
-/// does, reports throughout a pass; others only between passes), and
+/// With an executor, the progress callback is called within the tasks
+/// the executor happens to run on the thread that called `pmc_extract`
+/// (after each cell layer and, at most every 20 ms, between refined cells
+/// and refinement steps) and after each such task (a pool whose calling
+/// thread takes part, as TBB's does, reports throughout a pass; others
+/// only between passes), and
 /// stopping takes effect at the next layer of cells of every running
 /// task. An executor that
 /// returns without running every task makes `pmc_extract` fail with
