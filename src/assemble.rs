@@ -451,7 +451,7 @@ fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
 
 /// `n` default values, in a buffer from `bin` when it keeps one, written
 /// on `exec`; an error when the memory is not available.
-fn zeroed<T: Default + Clone + Send + Sync>(
+fn zeroed<T: Default + Clone + Send + Sync + 'static>(
     exec: Exec<'_>,
     bin: &Bin<Vec<T>>,
     n: usize,

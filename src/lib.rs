@@ -60,6 +60,7 @@ mod assemble;
 mod diagonals;
 mod extract;
 mod flat_map;
+mod fork;
 mod helpers;
 mod layers;
 mod memory;

@@ -13,6 +13,7 @@
 //! output does not depend on what a bin hands out.
 //! [`release_retained_memory`] (C: `pmc_release_memory`) empties the bins.
 
+use std::any::Any;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
@@ -47,19 +48,29 @@ pub fn release_retained_memory() -> usize {
         + SCRATCH.release()
 }
 
+/// Takes every bin's lock until `held` is cleared (see [`crate::fork`]).
+pub(crate) fn hold_all(held: &mut Vec<Box<dyn Any>>) {
+    POINTS.hold(held);
+    SLAB_TRIS.hold(held);
+    LEVELS.hold(held);
+    MESH_TRIS.hold(held);
+    REMAPS.hold(held);
+    SCRATCH.hold(held);
+}
+
 /// Bytes currently kept for reuse by all bins.
 pub fn retained_bytes() -> usize {
     RETAINED.load(Ordering::Relaxed)
 }
 
 /// Something a bin can hold: its size in bytes, and how to clear it.
-pub(crate) trait Held: Send {
+pub(crate) trait Held: Send + 'static {
     fn bytes(&self) -> usize;
     /// Drops the contents that must not outlive a call (none are read).
     fn reset(&mut self) {}
 }
 
-impl<T: Send> Held for Vec<T> {
+impl<T: Send + 'static> Held for Vec<T> {
     fn bytes(&self) -> usize {
         self.capacity() * std::mem::size_of::<T>()
     }
@@ -81,7 +92,16 @@ impl<H: Held> Bin<H> {
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Vec<H>> {
+        crate::fork::ensure_handlers();
         self.free.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Takes the bin's lock until `held` is cleared (around `fork`, see
+    /// [`crate::fork`]).
+    fn hold(&'static self, held: &mut Vec<Box<dyn Any>>) {
+        held.push(Box::new(
+            self.free.lock().unwrap_or_else(|e| e.into_inner()),
+        ));
     }
 
     /// The first kept buffer that `fits`, taken out of the bin.
@@ -127,7 +147,7 @@ impl<H: Held> Bin<H> {
     }
 }
 
-impl<T: Send> Bin<Vec<T>> {
+impl<T: Send + 'static> Bin<Vec<T>> {
     /// An empty vector, with the capacity of a kept one: the smallest
     /// holding `n` elements, else the largest (the caller reserves the
     /// rest); a new one when the bin is empty.

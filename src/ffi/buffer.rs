@@ -13,6 +13,14 @@ use super::panic::value_boundary;
 /// and not yet freed. Few live at once, so a list serves.
 static HANDED_OUT: Mutex<Vec<(usize, usize, usize)>> = Mutex::new(Vec::new());
 
+/// Takes the list's lock until `held` is cleared (around `fork`, see
+/// [`crate::fork`]).
+pub(crate) fn hold(held: &mut Vec<Box<dyn std::any::Any>>) {
+    held.push(Box::new(
+        HANDED_OUT.lock().unwrap_or_else(|e| e.into_inner()),
+    ));
+}
+
 /// Hands `v` over to the caller: its first element, or `NULL` when empty
 /// (an empty vector is simply dropped).
 pub(crate) fn hand_out(v: Vec<[u64; 3]>) -> *mut i64 {
@@ -21,6 +29,7 @@ pub(crate) fn hand_out(v: Vec<[u64; 3]>) -> *mut i64 {
     }
     let mut v = std::mem::ManuallyDrop::new(v);
     let entry = (v.as_mut_ptr() as usize, v.len(), v.capacity());
+    crate::fork::ensure_handlers();
     HANDED_OUT
         .lock()
         .unwrap_or_else(|e| e.into_inner())
@@ -49,6 +58,7 @@ pub unsafe extern "C" fn pmc_buffer_free(buffer: *mut std::ffi::c_void) {
         if buffer.is_null() {
             return;
         }
+        crate::fork::ensure_handlers();
         let entry = {
             let mut list = HANDED_OUT.lock().unwrap_or_else(|e| e.into_inner());
             let at = list.iter().position(|e| e.0 == buffer as usize);

@@ -37,6 +37,7 @@ mod status;
 mod version;
 mod volume;
 
+pub(crate) use buffer::hold as hold_all;
 pub use buffer::pmc_buffer_free;
 pub use enums::{
     pmc_normals, pmc_reconstruction, pmc_rule, pmc_scalar_type, pmc_topology, PmcNormals,

@@ -9,6 +9,9 @@
  * library is still mapped or none of its helper threads is left, waits
  * past the helpers' idle time (a helper left in unmapped code would crash
  * when its wait ends), then loads it again and does it all again.
+ * Last, forks once more with the library unloaded: the fork handlers
+ * the library registers (it takes its locks around fork) must have gone
+ * with it, or this fork would call into unmapped code.
  *
  * Usage: test_unload PATH_OF_libprecisemc.so
  */
@@ -150,6 +153,16 @@ static void round_trip(const char *path, const pmc_volume *v) {
     CHECK(helper_threads() == 0);
 }
 
+/* Forks a child that exits at once; whether both sides came through. */
+static int plain_fork(void) {
+    pid_t pid = fork();
+    if (pid < 0) return 0;
+    if (pid == 0) _exit(0);
+    int status;
+    if (waitpid(pid, &status, 0) != pid) return 0;
+    return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         fprintf(stderr, "usage: %s PATH_OF_libprecisemc.so\n", argv[0]);
@@ -159,6 +172,7 @@ int main(int argc, char **argv) {
     pmc_volume v = make_sphere(97, PMC_SCALAR_TYPE_F32, 1.0);
     round_trip(argv[1], &v);
     round_trip(argv[1], &v);
+    CHECK(plain_fork());
     free((void *)v.data);
     return test_finish("test_unload");
 }
