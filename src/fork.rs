@@ -58,6 +58,7 @@ fn register() {
 
 /// Takes every covered lock (always in the same order; none is ever held
 /// while taking another, so this cannot deadlock).
+#[cfg_attr(not(unix), allow(dead_code))]
 extern "C" fn before_fork() {
     let _ = std::panic::catch_unwind(|| {
         let _ = HELD.try_with(|held| {
@@ -69,6 +70,7 @@ extern "C" fn before_fork() {
 }
 
 /// Lets go of the locks taken by [`before_fork`].
+#[cfg_attr(not(unix), allow(dead_code))]
 extern "C" fn after_fork() {
     let _ = std::panic::catch_unwind(|| {
         let _ = HELD.try_with(|held| held.borrow_mut().clear());
