@@ -21,12 +21,24 @@
 
 use std::any::Any;
 use std::cell::RefCell;
+use std::mem::ManuallyDrop;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 thread_local! {
     /// The locks' guards, held by the forking thread from the `prepare`
-    /// handler to the `parent` / `child` one.
-    static HELD: RefCell<Vec<Box<dyn Any>>> = const { RefCell::new(Vec::new()) };
+    /// handler to the `parent` / `child` one, which empties it again.
+    ///
+    /// `ManuallyDrop`: a thread-local that needs dropping has its
+    /// destructor registered with glibc (`__cxa_thread_atexit_impl`) on
+    /// its first use by a thread, which (a) counts against this library's
+    /// image until that thread exits, so a host that forked once from its
+    /// main thread could never unmap the library with `dlclose` any more,
+    /// and (b) takes the dynamic loader's lock inside `fork`, while glibc
+    /// before 2.36 holds its fork-handler lock there, which `dlopen` and
+    /// `dlclose` of other libraries take under the loader's lock. Nothing
+    /// is left to drop: the handlers free the vector along with the guards.
+    static HELD: RefCell<ManuallyDrop<Vec<Box<dyn Any>>>> =
+        const { RefCell::new(ManuallyDrop::new(Vec::new())) };
 }
 
 /// Whether the handlers are registered (once per process).
@@ -73,7 +85,7 @@ extern "C" fn before_fork() {
 #[cfg_attr(not(unix), allow(dead_code))]
 extern "C" fn after_fork() {
     let _ = std::panic::catch_unwind(|| {
-        let _ = HELD.try_with(|held| held.borrow_mut().clear());
+        let _ = HELD.try_with(|held| drop(std::mem::take(&mut **held.borrow_mut())));
     });
 }
 

@@ -12,6 +12,11 @@
  * Last, forks once more with the library unloaded: the fork handlers
  * the library registers (it takes its locks around fork) must have gone
  * with it, or this fork would call into unmapped code.
+ * First of all, before any helper thread keeps the library mapped: loads
+ * it, extracts on the calling thread, forks, unloads it, and checks that
+ * it is unmapped (forking once must not keep it loaded: it did while the
+ * fork handlers kept their locks' guards in a thread-local that needs a
+ * destructor) and that a fork then does not call into it.
  *
  * Usage: test_unload PATH_OF_libprecisemc.so
  */
@@ -163,6 +168,40 @@ static int plain_fork(void) {
     return WIFEXITED(status) && WEXITSTATUS(status) == 0;
 }
 
+/* Loads the library, extracts on the calling thread alone (no helper
+ * thread: none keeps the library mapped), forks, unloads it; then it must
+ * be unmapped, and a fork must not call into it. */
+static void fork_then_unload(const char *path, const pmc_volume *v) {
+    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    CHECK(lib != NULL);
+    if (!lib) {
+        fprintf(stderr, "dlopen: %s\n", dlerror());
+        return;
+    }
+    extract_fn extract = (extract_fn)(uintptr_t)dlsym(lib, "pmc_extract");
+    options_new_fn options_new = (options_new_fn)(uintptr_t)dlsym(lib, "pmc_options_new");
+    options_free_fn options_free = (options_free_fn)(uintptr_t)dlsym(lib, "pmc_options_free");
+    set_u32_fn set_threads = (set_u32_fn)(uintptr_t)dlsym(lib, "pmc_options_set_threads");
+    mesh_free_fn mesh_free = (mesh_free_fn)(uintptr_t)dlsym(lib, "pmc_mesh_free");
+    CHECK(extract && options_new && options_free && set_threads && mesh_free);
+    if (extract && options_new && options_free && set_threads && mesh_free) {
+        pmc_options *o = options_new();
+        pmc_mesh *m = NULL;
+        CHECK(set_threads(o, 1) == PMC_STATUS_OK);
+        CHECK(extract(v, 20.5, o, &m) == PMC_STATUS_OK && m != NULL);
+        if (m) mesh_free(m);
+        options_free(o);
+    }
+    CHECK(helper_threads() == 0);
+    CHECK(plain_fork());
+    CHECK(dlclose(lib) == 0);
+    int still = mapped(path);
+    printf("after fork and dlclose: library %s\n", still ? "still mapped" : "unmapped");
+    CHECK(still == 0);
+    /* The library's fork handlers went with it (or this crashes). */
+    CHECK(plain_fork());
+}
+
 int main(int argc, char **argv) {
     if (argc < 2) {
         fprintf(stderr, "usage: %s PATH_OF_libprecisemc.so\n", argv[0]);
@@ -170,6 +209,7 @@ int main(int argc, char **argv) {
     }
     /* 96^3 cells: plain Marching Cubes on 2 threads starts a helper. */
     pmc_volume v = make_sphere(97, PMC_SCALAR_TYPE_F32, 1.0);
+    fork_then_unload(argv[1], &v);
     round_trip(argv[1], &v);
     round_trip(argv[1], &v);
     CHECK(plain_fork());
