@@ -17,7 +17,8 @@
 //! holds it for its whole run, which may be the one forking (from a
 //! progress callback). A child finds it either free, and starts a crew of
 //! its own (the crew records its process id), or held, and starts helpers
-//! for each call.
+//! for each call. (A child forked from a progress callback must not
+//! return into that extraction: the helpers it waits for are not there.)
 
 use std::any::Any;
 use std::cell::RefCell;

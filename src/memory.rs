@@ -21,14 +21,25 @@ pub(crate) fn reserve<T>(v: &mut Vec<T>, n: usize) -> Result<(), Error> {
 pub(crate) fn advise_huge_pages<T>(v: &mut Vec<T>) {
     #[cfg(target_os = "linux")]
     {
-        static OFF: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        use std::sync::atomic::{AtomicU8, Ordering};
+        // 0 not read yet, 1 advise, 2 off. Not a `OnceLock`: a child
+        // forked while another thread ran its initialiser would wait on
+        // it forever; racing first readers store the same answer.
+        static OFF: AtomicU8 = AtomicU8::new(0);
+        let off = || {
+            let mut state = OFF.load(Ordering::Relaxed);
+            if state == 0 {
+                let set = std::env::var_os("PMC_NO_HUGE_PAGES").is_some_and(|v| v != "0");
+                state = if set { 2 } else { 1 };
+                OFF.store(state, Ordering::Relaxed);
+            }
+            state == 2
+        };
         const HUGE: usize = 2 << 20;
         let start = v.as_mut_ptr() as usize;
         let end = start + v.capacity() * std::mem::size_of::<T>();
         let (lo, hi) = (start.next_multiple_of(HUGE), end & !(HUGE - 1));
-        if hi > lo
-            && !*OFF.get_or_init(|| std::env::var_os("PMC_NO_HUGE_PAGES").is_some_and(|v| v != "0"))
-        {
+        if hi > lo && !off() {
             // SAFETY: [lo, hi) lies within the vector's allocation, which
             // it owns; MADV_HUGEPAGE changes no contents.
             unsafe {
