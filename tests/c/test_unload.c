@@ -104,48 +104,71 @@ static int child_extracts(extract_fn extract, options_new_fn options_new,
     return 0;
 }
 
+/* The library's entry points these tests call, looked up after dlopen. */
+typedef struct {
+    void *lib;
+    extract_fn extract;
+    options_new_fn options_new;
+    options_free_fn options_free;
+    set_u32_fn set_threads;
+    set_f64_fn set_epsilon;
+    mesh_stats_fn mesh_stats;
+    mesh_free_fn mesh_free;
+} api;
+
+/* Loads the library at `path`; whether it and every entry point were
+ * found (a is zeroed first; a->lib is set whenever dlopen succeeded). */
+static int load_api(const char *path, api *a) {
+    memset(a, 0, sizeof *a);
+    a->lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    CHECK(a->lib != NULL);
+    if (!a->lib) {
+        fprintf(stderr, "dlopen: %s\n", dlerror());
+        return 0;
+    }
+    a->extract = (extract_fn)(uintptr_t)dlsym(a->lib, "pmc_extract");
+    a->options_new = (options_new_fn)(uintptr_t)dlsym(a->lib, "pmc_options_new");
+    a->options_free = (options_free_fn)(uintptr_t)dlsym(a->lib, "pmc_options_free");
+    a->set_threads = (set_u32_fn)(uintptr_t)dlsym(a->lib, "pmc_options_set_threads");
+    a->set_epsilon = (set_f64_fn)(uintptr_t)dlsym(a->lib, "pmc_options_set_epsilon");
+    a->mesh_stats = (mesh_stats_fn)(uintptr_t)dlsym(a->lib, "pmc_mesh_stats");
+    a->mesh_free = (mesh_free_fn)(uintptr_t)dlsym(a->lib, "pmc_mesh_free");
+    int all = a->extract && a->options_new && a->options_free && a->set_threads &&
+              a->set_epsilon && a->mesh_stats && a->mesh_free;
+    CHECK(all);
+    return all;
+}
+
 /* Loads the library, extracts twice on 2 threads, forks a child that
  * extracts, unloads the library. */
 static void round_trip(const char *path, const pmc_volume *v) {
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    CHECK(lib != NULL);
-    if (!lib) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
-        return;
-    }
-    extract_fn extract = (extract_fn)(uintptr_t)dlsym(lib, "pmc_extract");
-    options_new_fn options_new = (options_new_fn)(uintptr_t)dlsym(lib, "pmc_options_new");
-    options_free_fn options_free = (options_free_fn)(uintptr_t)dlsym(lib, "pmc_options_free");
-    set_u32_fn set_threads = (set_u32_fn)(uintptr_t)dlsym(lib, "pmc_options_set_threads");
-    set_f64_fn set_epsilon = (set_f64_fn)(uintptr_t)dlsym(lib, "pmc_options_set_epsilon");
-    mesh_stats_fn mesh_stats = (mesh_stats_fn)(uintptr_t)dlsym(lib, "pmc_mesh_stats");
-    mesh_free_fn mesh_free = (mesh_free_fn)(uintptr_t)dlsym(lib, "pmc_mesh_free");
-    CHECK(extract && options_new && options_free && set_threads && set_epsilon && mesh_stats &&
-          mesh_free);
-    if (extract && options_new && options_free && set_threads && set_epsilon && mesh_stats &&
-        mesh_free) {
+    api a;
+    int ok = load_api(path, &a);
+    if (!a.lib) return;
+    if (ok) {
         for (int refined = 0; refined < 2; refined++) {
-            pmc_options *o = options_new();
+            pmc_options *o = a.options_new();
             pmc_mesh *m = NULL;
             pmc_stats st;
-            CHECK(set_threads(o, 2) == PMC_STATUS_OK);
+            CHECK(a.set_threads(o, 2) == PMC_STATUS_OK);
             /* Plain Marching Cubes, or refinement (epsilon 0.001). */
-            CHECK(set_epsilon(o, refined ? 0.001 : 0.0) == PMC_STATUS_OK);
-            CHECK(extract(v, 20.5, o, &m) == PMC_STATUS_OK);
+            CHECK(a.set_epsilon(o, refined ? 0.001 : 0.0) == PMC_STATUS_OK);
+            CHECK(a.extract(v, 20.5, o, &m) == PMC_STATUS_OK);
             CHECK(m != NULL);
             if (m) {
-                CHECK(mesh_stats(m, &st) == PMC_STATUS_OK);
+                CHECK(a.mesh_stats(m, &st) == PMC_STATUS_OK);
                 CHECK(st.output_triangles > 1000);
-                mesh_free(m);
+                a.mesh_free(m);
             }
-            options_free(o);
+            a.options_free(o);
         }
     }
     /* The extractions above ran on helper threads (2 threads asked). */
     CHECK(helper_threads() >= 1);
-    if (extract && options_new && options_free && set_threads && mesh_free)
-        CHECK(child_extracts(extract, options_new, options_free, set_threads, mesh_free, v));
-    CHECK(dlclose(lib) == 0);
+    if (ok)
+        CHECK(child_extracts(a.extract, a.options_new, a.options_free, a.set_threads,
+                             a.mesh_free, v));
+    CHECK(dlclose(a.lib) == 0);
     int still = mapped(path), helpers = helper_threads();
     printf("after dlclose: library %s, %d helper thread(s)\n",
            still ? "still mapped" : "unmapped", helpers);
@@ -172,29 +195,20 @@ static int plain_fork(void) {
  * thread: none keeps the library mapped), forks, unloads it; then it must
  * be unmapped, and a fork must not call into it. */
 static void fork_then_unload(const char *path, const pmc_volume *v) {
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    CHECK(lib != NULL);
-    if (!lib) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
-        return;
-    }
-    extract_fn extract = (extract_fn)(uintptr_t)dlsym(lib, "pmc_extract");
-    options_new_fn options_new = (options_new_fn)(uintptr_t)dlsym(lib, "pmc_options_new");
-    options_free_fn options_free = (options_free_fn)(uintptr_t)dlsym(lib, "pmc_options_free");
-    set_u32_fn set_threads = (set_u32_fn)(uintptr_t)dlsym(lib, "pmc_options_set_threads");
-    mesh_free_fn mesh_free = (mesh_free_fn)(uintptr_t)dlsym(lib, "pmc_mesh_free");
-    CHECK(extract && options_new && options_free && set_threads && mesh_free);
-    if (extract && options_new && options_free && set_threads && mesh_free) {
-        pmc_options *o = options_new();
+    api a;
+    int ok = load_api(path, &a);
+    if (!a.lib) return;
+    if (ok) {
+        pmc_options *o = a.options_new();
         pmc_mesh *m = NULL;
-        CHECK(set_threads(o, 1) == PMC_STATUS_OK);
-        CHECK(extract(v, 20.5, o, &m) == PMC_STATUS_OK && m != NULL);
-        if (m) mesh_free(m);
-        options_free(o);
+        CHECK(a.set_threads(o, 1) == PMC_STATUS_OK);
+        CHECK(a.extract(v, 20.5, o, &m) == PMC_STATUS_OK && m != NULL);
+        if (m) a.mesh_free(m);
+        a.options_free(o);
     }
     CHECK(helper_threads() == 0);
     CHECK(plain_fork());
-    CHECK(dlclose(lib) == 0);
+    CHECK(dlclose(a.lib) == 0);
     int still = mapped(path);
     printf("after fork and dlclose: library %s\n", still ? "still mapped" : "unmapped");
     CHECK(still == 0);
