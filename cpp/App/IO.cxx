@@ -323,12 +323,18 @@ vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
   {
     StderrCapture capture;
     // The header first: a size beyond the machine's memory is refused
-    // before any allocation (some readers crash when it fails).
+    // before any allocation (some readers crash when it fails). A header
+    // the reader rejected stops the read: asked for the data anyway,
+    // VTK's MetaImage reader read a 4D file's samples past the end of
+    // the empty image it had allocated (heap overflow).
     reader->UpdateInformation();
-    if (TakeVTKErrors().empty())
+    std::vector<std::string> rejected = TakeVTKErrors();
+    if (!rejected.empty())
     {
-      CheckDeclaredSize(reader, path);
+      std::string why = BestError(rejected);
+      Unreadable(path, why.empty() ? "the reader rejected its header" : why);
     }
+    CheckDeclaredSize(reader, path);
     reader->Update();
     stray = capture.Text();
   }

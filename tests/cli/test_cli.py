@@ -1120,6 +1120,29 @@ def nrrd_headers_vtk_hangs_on_or_misreads_are_refused():
 
 
 @check
+def header_errors_stop_the_read():
+    """A reader that rejects a header (VTK's MetaImage reader takes at most
+    3 dimensions) must not be asked for the data anyway: it allocated an
+    empty image and read the samples past its end (heap overflow, abort)."""
+    d = fresh_dir("header-errors")
+    out = os.path.join(d, "o.vtp")
+    data = np.zeros(4 ** 3, dtype="u1")
+    data[21] = 9
+    for name, dims in (("4d.mha", "4 4 4 1"), ("4d-long.mha", "4 4 4 2"),
+                       ("9d.mha", "4 4 4 1 1 1 1 1 1")):
+        ndims = len(dims.split())
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(b"ObjectType = Image\nNDims = %d\nDimSize = %s\nElementType = MET_UCHAR\n"
+                    b"ElementDataFile = LOCAL\n" % (ndims, dims.encode()))
+            f.write(np.tile(data, 2).tobytes())
+        try:
+            expect_error([path, "-o", out], "dimensions", outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
