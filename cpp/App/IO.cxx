@@ -177,12 +177,14 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
   }
 }
 
-// What VTK 9.1's NRRD reader would misread or hang on, refused before it
-// sees the file: ASCII data after an attached header (read as garbage
-// without an error), an attached header that no blank line ends (its
-// reader then never returns), and sizes that are not positive integers
-// (an allocation of a negative size). Returns the header's sizes, which
-// the caller compares with what the reader made of them.
+// What VTK 9.1's NRRD reader would misread, crash or hang on, refused
+// before it sees the file: ASCII data after an attached header (read as
+// garbage without an error), an attached header that no blank line ends
+// (its reader then never returns), sizes that are not positive integers
+// (an allocation of a negative size), and a dimension other than 3 or 4
+// or missing, or not the number of sizes (it read past the end of its
+// image, or a volume the header does not describe). Returns the header's
+// sizes, which the caller compares with what the reader made of them.
 std::vector<long long> CheckNrrdHeader(const std::string& path)
 {
   std::ifstream in(path, std::ios::binary);
@@ -190,6 +192,7 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
   bool ascii = false;
   bool detached = false;
   bool ended = false;
+  std::string dimension;
   std::vector<long long> sizes;
   // A header is a few hundred bytes: past a megabyte without a blank line
   // it is data.
@@ -225,6 +228,10 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
     {
       detached = true;
     }
+    if (lower.compare(0, 10, "dimension:") == 0)
+    {
+      dimension = value(10);
+    }
     if (lower.compare(0, 6, "sizes:") == 0)
     {
       std::string v = value(6);
@@ -254,6 +261,21 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
     Unreadable(path, "ASCII-encoded NRRD data in the header's own file, which VTK's reader "
                      "does not read correctly: use raw or gzip encoding, or a detached header "
                      "(.nhdr)");
+  }
+  if (dimension.empty())
+  {
+    Unreadable(path, "the header has no dimension field");
+  }
+  if (dimension != "3" && dimension != "4")
+  {
+    Unreadable(path, "the header declares dimension " + dimension +
+        ": VTK's NRRD reader reads volumes of dimension 3 (or 4, the first axis being vector "
+        "components)");
+  }
+  if (sizes.size() != static_cast<size_t>(dimension[0] - '0'))
+  {
+    Unreadable(path, "the header declares dimension " + dimension + " but " +
+        std::to_string(sizes.size()) + " sizes");
   }
   return sizes;
 }
@@ -591,19 +613,29 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
   }
   int dims[3];
   image->GetDimensions(dims);
-  if (nrrdSizes.size() == 3 &&
-    (dims[0] != nrrdSizes[0] || dims[1] != nrrdSizes[1] || dims[2] != nrrdSizes[2]))
+  if (!nrrdSizes.empty())
   {
-    // VTK 9.1's reader takes a short first axis (9 samples or fewer, even
-    // with kinds "domain") or one without a space direction for vector
-    // components.
+    // Dimension 3: the sizes are the samples, one component. VTK 9.1's
+    // reader takes a short first axis (9 samples or fewer, even with
+    // kinds "domain") or one without a space direction for vector
+    // components. Dimension 4: the first size is the components.
     const int components = image->GetNumberOfScalarComponents();
-    Unreadable(path, "VTK's NRRD reader reads the sizes " + std::to_string(nrrdSizes[0]) + " " +
-        std::to_string(nrrdSizes[1]) + " " + std::to_string(nrrdSizes[2]) + " as " +
-        std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" + std::to_string(dims[2]) +
-        " samples of " + std::to_string(components) +
-        " components (it took the first axis for components): write the volume as .mha, .nii "
-        "or .vti");
+    const size_t first = nrrdSizes.size() - 3;
+    const long long expectedComponents = first == 0 ? 1 : nrrdSizes[0];
+    if (dims[0] != nrrdSizes[first] || dims[1] != nrrdSizes[first + 1] ||
+      dims[2] != nrrdSizes[first + 2] || components != expectedComponents)
+    {
+      std::string declared;
+      for (long long n : nrrdSizes)
+      {
+        declared += (declared.empty() ? "" : " ") + std::to_string(n);
+      }
+      Unreadable(path, "VTK's NRRD reader reads the sizes " + declared + " as " +
+          std::to_string(dims[0]) + "x" + std::to_string(dims[1]) + "x" +
+          std::to_string(dims[2]) + " samples of " + std::to_string(components) +
+          " components (it took the first axis for components): write the volume as .mha, "
+          ".nii or .vti");
+    }
   }
   if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
   {

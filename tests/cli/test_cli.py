@@ -1143,6 +1143,45 @@ def header_errors_stop_the_read():
 
 
 @check
+def nrrd_dimensions_vtk_crashes_on_are_refused():
+    """VTK 9.1's NRRD reader reads volumes of dimension 3 (or 4, the first
+    axis being vector components): a header without a dimension, with
+    another one, or whose sizes do not match it made it read past its
+    image (segmentation fault) or read a volume the header does not
+    describe. Each is refused with its reason."""
+    d = fresh_dir("nrrd-dimension")
+    out = os.path.join(d, "o.vtp")
+    data = np.zeros(1000, dtype="u1")
+    data[555] = 9
+    head = "NRRD0004\ntype: uchar\n%sencoding: raw\n\n"
+    cases = [
+        ("none.nrrd", "sizes: 10 10 10\n", "no dimension"),
+        ("one.nrrd", "dimension: 1\nsizes: 1000\n", "dimension 1"),
+        ("two.nrrd", "dimension: 2\nsizes: 4 250\n", "dimension 2"),
+        ("five.nrrd", "dimension: 5\nsizes: 10 10 10 1 1\n", "dimension 5"),
+        ("zero.nrrd", "dimension: 0\nsizes: 10 10 10\n", "dimension 0"),
+        ("word.nrrd", "dimension: x\nsizes: 10 10 10\n", "dimension"),
+        ("more-sizes.nrrd", "dimension: 3\nsizes: 10 10 5 2\n", "4 sizes"),
+        ("fewer-sizes.nrrd", "dimension: 4\nsizes: 10 10 10\n", "3 sizes"),
+    ]
+    for name, fields, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write((head % fields).encode() + data.tobytes())
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+    # Dimension 4 with a first axis of vector components reads.
+    path = os.path.join(d, "vector.nrrd")
+    with open(path, "wb") as f:
+        f.write((head % "dimension: 4\nsizes: 2 10 10 5\nkinds: vector domain domain domain\n")
+                .encode() + data.tobytes())
+    r = ok(path, "-o", out)
+    expect("10x10x5, unsigned char (component 0 of 2)" in r.stdout, r.stdout)
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
