@@ -181,9 +181,10 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
 // before it sees the file: ASCII data after an attached header (read as
 // garbage without an error), an attached header that no blank line ends
 // (its reader then never returns), sizes that are not positive integers
-// (an allocation of a negative size), and a dimension other than 3 or 4
+// (an allocation of a negative size), a dimension other than 3 or 4
 // or missing, or not the number of sizes (it read past the end of its
-// image, or a volume the header does not describe). Returns the header's
+// image, or a volume the header does not describe), and a 4D header whose
+// first axis is spatial (read as vector components). Returns the header's
 // sizes, which the caller compares with what the reader made of them.
 std::vector<long long> CheckNrrdHeader(const std::string& path)
 {
@@ -193,6 +194,8 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
   bool detached = false;
   bool ended = false;
   std::string dimension;
+  std::string firstKind;      // of the first axis, "" if not given
+  std::string firstDirection; // of the first axis, "" if not given
   std::vector<long long> sizes;
   // A header is a few hundred bytes: past a megabyte without a blank line
   // it is data.
@@ -231,6 +234,17 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
     if (lower.compare(0, 10, "dimension:") == 0)
     {
       dimension = value(10);
+    }
+    if (lower.compare(0, 6, "kinds:") == 0)
+    {
+      std::istringstream(value(6)) >> firstKind;
+    }
+    if (lower.compare(0, 17, "space directions:") == 0)
+    {
+      // "(1,0,0) (0,1,0) ..." or "none ...": the first entry up to its
+      // closing parenthesis.
+      std::string v = value(17);
+      firstDirection = v.compare(0, 4, "none") == 0 ? "none" : v.substr(0, v.find(')') + 1);
     }
     if (lower.compare(0, 6, "sizes:") == 0)
     {
@@ -276,6 +290,21 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, "the header declares dimension " + dimension + " but " +
         std::to_string(sizes.size()) + " sizes");
+  }
+  // Of 4 axes the reader takes the first for vector components, whatever
+  // the header says of it: a time series (x y z t) would be read as
+  // y z t samples of x components.
+  const std::string misread = "VTK's NRRD reader takes the first of 4 axes for vector "
+                              "components, and the header makes it ";
+  const std::string instead = " (write the volume as .mha, .nii or .vti, one file per "
+                              "3D volume)";
+  if (dimension == "4" && (firstKind == "domain" || firstKind == "space" || firstKind == "time"))
+  {
+    Unreadable(path, misread + "a '" + firstKind + "' axis" + instead);
+  }
+  if (dimension == "4" && !firstDirection.empty() && firstDirection != "none")
+  {
+    Unreadable(path, misread + "a spatial axis (space direction " + firstDirection + ")" + instead);
   }
   return sizes;
 }

@@ -1182,6 +1182,44 @@ def nrrd_dimensions_vtk_crashes_on_are_refused():
 
 
 @check
+def nrrd_4d_with_a_spatial_first_axis_is_refused():
+    """VTK 9.1's NRRD reader takes the first of 4 axes for vector
+    components: a time series (kinds domain domain domain time) of
+    10x10x10 samples was read as 10x10x2 samples of 10 components and
+    contoured without a word. A first axis the header calls spatial is
+    refused."""
+    d = fresh_dir("nrrd-4d")
+    out = os.path.join(d, "o.vtp")
+    data = np.zeros(2000, dtype="u1")
+    data[555] = 9
+    head = "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 10 10 10 2\n%sencoding: raw\n\n"
+    cases = [
+        ("time.nrrd", "kinds: domain domain domain time\n", "'domain'"),
+        ("list.nrrd", "kinds: space space space list\n", "'space'"),
+        ("directions.nrrd", "space: 3D-right-handed\n"
+         "space directions: (1,0,0) (0,1,0) (0,0,1) none\n", "space direction"),
+    ]
+    for name, fields, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write((head % fields).encode() + data.tobytes())
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+    # A first axis of vectors, however it is said, reads.
+    for name, fields in (("vector.nrrd", "kinds: vector domain domain domain\n"),
+                         ("none.nrrd", "space: 3D-right-handed\n"
+                          "space directions: none (1,0,0) (0,1,0) (0,0,1)\n")):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write((head.replace("10 10 10 2", "2 10 10 10") % fields).encode()
+                    + data.tobytes())
+        r = ok(path, "-o", out)
+        expect("10x10x10, unsigned char (component 0 of 2)" in r.stdout, f"{name}: {r.stdout}")
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
