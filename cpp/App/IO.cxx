@@ -19,6 +19,7 @@
 #include "vtkNew.h"
 #include "vtkNIFTIImageReader.h"
 #include "vtkNrrdReader.h"
+#include "vtkObjectFactory.h"
 #include "vtkOBJWriter.h"
 #include "vtkPLYWriter.h"
 #include "vtkPointData.h"
@@ -527,13 +528,86 @@ void CheckAppendedRawData(const std::string& path)
   }
 }
 
+// VTK's XML image data reader, which allocates the whole extent and fills
+// what the file's pieces hold: samples no piece holds are left as they
+// were allocated (zero or garbage), without a word. It tells which are.
+// (Named vtk* so that CleanMessage strips its "name (0x...): " prefix.)
+class vtkPieceCheckingImageDataReader : public vtkXMLImageDataReader
+{
+public:
+  static vtkPieceCheckingImageDataReader* New();
+  vtkTypeMacro(vtkPieceCheckingImageDataReader, vtkXMLImageDataReader);
+
+  // After the read: "" when every sample of the whole extent lies in a
+  // piece, else why not.
+  std::string UncoveredSamples()
+  {
+    const int* whole = this->WholeExtent;
+    long long n[3];
+    for (int a = 0; a < 3; ++a)
+    {
+      n[a] = static_cast<long long>(whole[2 * a + 1]) - whole[2 * a] + 1;
+      if (n[a] < 1)
+      {
+        return std::string();
+      }
+    }
+    if (this->NumberOfPieces < 1 || !this->PieceExtents)
+    {
+      return "the file has no pieces";
+    }
+    // A bit per sample: an eighth of the smallest volume's size.
+    std::vector<bool> covered(static_cast<size_t>(n[0] * n[1] * n[2]), false);
+    for (int p = 0; p < this->NumberOfPieces; ++p)
+    {
+      const int* e = this->PieceExtents + 6 * p;
+      int lo[3], hi[3];
+      for (int a = 0; a < 3; ++a)
+      {
+        lo[a] = std::max(e[2 * a], whole[2 * a]);
+        hi[a] = std::min(e[2 * a + 1], whole[2 * a + 1]);
+      }
+      for (long long k = lo[2]; k <= hi[2]; ++k)
+      {
+        for (long long j = lo[1]; j <= hi[1]; ++j)
+        {
+          const long long row = ((k - whole[4]) * n[1] + (j - whole[2])) * n[0] - whole[0];
+          for (long long i = lo[0]; i <= hi[0]; ++i)
+          {
+            covered[static_cast<size_t>(row + i)] = true;
+          }
+        }
+      }
+    }
+    const long long missing = std::count(covered.begin(), covered.end(), false);
+    if (missing == 0)
+    {
+      return std::string();
+    }
+    return "its " + std::to_string(this->NumberOfPieces) +
+      (this->NumberOfPieces == 1 ? " piece leaves " : " pieces leave ") +
+      std::to_string(missing) + " of the " +
+      std::to_string(n[0] * n[1] * n[2]) +
+      " samples of the whole extent out (is the file complete?)";
+  }
+
+protected:
+  vtkPieceCheckingImageDataReader() = default;
+  ~vtkPieceCheckingImageDataReader() override = default;
+
+private:
+  vtkPieceCheckingImageDataReader(const vtkPieceCheckingImageDataReader&) = delete;
+  void operator=(const vtkPieceCheckingImageDataReader&) = delete;
+};
+vtkStandardNewMacro(vtkPieceCheckingImageDataReader);
+
 // The reader for a file, after a cheap look at its header when the reader
 // offers one, so that a file of another format is reported as such.
 vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
 {
   if (ext == ".vti")
   {
-    auto reader = vtkSmartPointer<vtkXMLImageDataReader>::New();
+    auto reader = vtkSmartPointer<vtkPieceCheckingImageDataReader>::New();
     if (!reader->CanReadFile(path.c_str()))
     {
       Unreadable(path, "not a VTK XML image data file");
@@ -638,6 +712,14 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
     if (!image || image->GetNumberOfPoints() == 0)
     {
       Unreadable(path, "the file holds no image data");
+    }
+    if (auto* xml = vtkPieceCheckingImageDataReader::SafeDownCast(reader))
+    {
+      std::string uncovered = xml->UncoveredSamples();
+      if (!uncovered.empty())
+      {
+        Unreadable(path, uncovered);
+      }
     }
   }
   int dims[3];

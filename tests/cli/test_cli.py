@@ -1220,6 +1220,58 @@ def nrrd_4d_with_a_spatial_first_axis_is_refused():
 
 
 @check
+def vti_pieces_must_cover_the_whole_extent():
+    """VTK's XML reader allocates the whole extent and fills what the
+    pieces hold: a .vti whose pieces leave samples out (a piece lost, a
+    whole extent larger than its piece, an inverted piece extent) was
+    contoured with those samples zero or uninitialised, exit status 0.
+    Such files are refused; a file of several pieces that cover the whole
+    extent reads as one piece."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    d = fresh_dir("vti-pieces")
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(0, 15, 0, 13, 0, 11)
+    whole = os.path.join(d, "whole.vti")
+    pieces = os.path.join(d, "pieces.vti")
+    for path, count in ((whole, 1), (pieces, 3)):
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputConnection(source.GetOutputPort())
+        w.SetNumberOfPieces(count)
+        w.SetDataModeToAscii()
+        w.Write()
+    a = ok(whole, "-v", "150", "-o", os.path.join(d, "whole.vtp"))
+    b = ok(pieces, "-v", "150", "-o", os.path.join(d, "pieces.vtp"))
+    expect(table_value(a.stdout, "output triangles") == table_value(b.stdout, "output triangles"),
+           f"pieces read differently:\n{a.stdout}\n{b.stdout}")
+    with open(pieces) as f:
+        text = f.read()
+    blocks = re.findall(r"<Piece .*?</Piece>\s*", text, re.S)
+    expect(len(blocks) == 3, f"{len(blocks)} pieces written")
+    m = re.search(r'WholeExtent="([^"]*)"', text)
+    ext = [int(v) for v in m.group(1).split()]
+    first = re.search(r'<Piece Extent="([^"]*)"', text).group(1)
+    lo = first.split()
+    inverted = " ".join([lo[1], lo[0]] + lo[2:])
+    cases = {
+        "lost.vti": text.replace(blocks[1], ""),
+        "larger.vti": text.replace(m.group(0), 'WholeExtent="%d %d %d %d %d %d"' % (
+            ext[0], ext[1] + 4, ext[2], ext[3], ext[4], ext[5])),
+        "inverted.vti": text.replace('<Piece Extent="%s"' % first,
+                                     '<Piece Extent="%s"' % inverted),
+    }
+    out = os.path.join(d, "o.vtp")
+    for name, content in cases.items():
+        path = os.path.join(d, name)
+        with open(path, "w") as f:
+            f.write(content)
+        try:
+            expect_error([path, "-v", "150", "-o", out], "pieces", outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
