@@ -556,6 +556,20 @@ public:
     {
       return "the file has no pieces";
     }
+    // Nearly every file has a piece holding the whole extent: done.
+    for (int p = 0; p < this->NumberOfPieces; ++p)
+    {
+      const int* e = this->PieceExtents + 6 * p;
+      bool all = true;
+      for (int a = 0; a < 3; ++a)
+      {
+        all = all && e[2 * a] <= whole[2 * a] && e[2 * a + 1] >= whole[2 * a + 1];
+      }
+      if (all)
+      {
+        return std::string();
+      }
+    }
     // A bit per sample: an eighth of the smallest volume's size.
     std::vector<bool> covered(static_cast<size_t>(n[0] * n[1] * n[2]), false);
     for (int p = 0; p < this->NumberOfPieces; ++p)
