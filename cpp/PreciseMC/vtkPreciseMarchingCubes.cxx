@@ -807,6 +807,22 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   }
   if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
   {
+    // A 2D volume is an error. A piece of a 3D volume that is a single
+    // layer of samples (vtkExtentTranslator makes such pieces when it cuts
+    // an axis into more parts than it has cells, as 3 pieces of a volume
+    // two cells wide) holds no cell: it has no surface, like an empty piece.
+    int whole[6];
+    std::copy(dataExtent, dataExtent + 6, whole);
+    if (inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    }
+    if (whole[0] < whole[1] && whole[2] < whole[3] && whole[4] < whole[5])
+    {
+      vtkDebugMacro(<< "The piece holds no cells of the volume (dimensions " << dims[0] << " x "
+                    << dims[1] << " x " << dims[2] << ")");
+      return 1;
+    }
     vtkErrorMacro(<< "Cannot contour data of dimension != 3 (dimensions " << dims[0] << " x "
                   << dims[1] << " x " << dims[2] << ")");
     return 1;

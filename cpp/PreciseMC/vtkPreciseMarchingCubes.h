@@ -56,7 +56,9 @@
  * reconstruction filter (the default) and no normals, no ghost levels are
  * requested from the input: image pieces share their boundary samples, so
  * the union of the pieces' surfaces is the surface of the whole volume,
- * without cracks or overlaps. Normals at a point on a piece's face read
+ * without cracks or overlaps (a piece that is a single layer of samples
+ * holds no cell and has an empty output; a 2D input is an error).
+ * Normals at a point on a piece's face read
  * the samples beyond it, so with ComputeNormals on the filter asks for one
  * ghost level and keeps only the triangles of the piece's own cells (as
  * below). Refining with the trilinear topology from MaxLevel 3 up, a

@@ -901,6 +901,80 @@ def test_pieces_equal_the_serial_surface(name):
         assert np.array_equal(union, serial), f"{pieces} pieces"
 
 
+@pytest.mark.parametrize("source", ["SetInputData", "vtkRTAnalyticSource"])
+@pytest.mark.parametrize("props", [{}, {"Epsilon": 0.0, "ComputeNormals": 0}])
+def test_pieces_without_cells_are_empty_without_an_error(source, props, rng):
+    # vtkExtentTranslator cuts a volume two cells wide along every axis into
+    # 3 (5, 9) pieces of which some are a single layer of samples: valid
+    # pieces of a 3D volume that hold no cell. Such a piece has no surface;
+    # it is not a 2D input, so no error, and the pieces still make up the
+    # serial surface.
+    from vtkmodules.vtkCommonExecutionModel import vtkExtentTranslator
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    whole = [0, 2, -1, 1, 4, 6]
+    if source == "SetInputData":
+        image = image_from_array(rng.random((3, 3, 3)), extent_start=(0, -1, 4))
+        value = 0.5
+
+        def connect(f):
+            f.SetInputData(image)
+    else:
+        rt = vtkRTAnalyticSource()
+        rt.SetWholeExtent(*whole)
+        rt.Update()
+        value = float(np.mean(rt.GetOutput().GetPointData().GetScalars().GetRange()))
+
+        def connect(f):
+            f.SetInputConnection(rt.GetOutputPort())
+
+    def run(piece, pieces):
+        f = vtkPreciseMarchingCubes()
+        connect(f)
+        f.SetValue(0, value)
+        f.SetOutputPointsPrecision(1)
+        for name, v in props.items():
+            getattr(f, "Set" + name)(v)
+        observer = ErrorObserver(f)
+        f.UpdatePiece(piece, pieces, 0)
+        return f.GetOutput(), observer
+
+    serial, observer = run(0, 1)
+    assert serial.GetNumberOfPolys() > 0 and not observer.errors
+    serial = coordinate_triangles(serial)
+    for pieces in (3, 5, 9):
+        flat = 0
+        parts = []
+        for piece in range(pieces):
+            extent = [0] * 6
+            if vtkExtentTranslator().PieceToExtentThreadSafe(
+                    piece, pieces, 0, whole, extent, vtkExtentTranslator.BLOCK_MODE, 0):
+                flat += any(extent[2 * a] == extent[2 * a + 1] for a in range(3))
+            out, observer = run(piece, pieces)
+            assert not observer.errors, f"piece {piece} of {pieces}: {observer.errors}"
+            parts.append(coordinate_triangles(out))
+        assert flat > 0, "the translator no longer makes pieces without cells here"
+        union = np.concatenate(parts)
+        union = union[np.lexsort(union.T[::-1])]
+        assert union.shape == serial.shape and np.array_equal(union, serial), f"{pieces} pieces"
+
+
+def test_a_flat_image_is_still_an_error():
+    # The other side of the test above: an input whose whole extent is a
+    # single layer of samples is not 3D data.
+    for shape in ((1, 4, 5), (4, 1, 5), (4, 5, 1)):
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image_from_array(np.random.default_rng(1).random(shape)))
+        f.SetValue(0, 0.5)
+        observer = ErrorObserver(f)
+        f.Update()
+        assert observer.errors and "dimension" in observer.errors[0]
+        assert f.GetOutput().GetNumberOfPoints() == 0
+        # Asked for as pieces too.
+        f.UpdatePiece(1, 2, 0)
+        assert len(observer.errors) == 2
+
+
 @pytest.mark.parametrize("kind", ["ghost-array", "blanked", "duplicate-corner"])
 def test_pieces_of_a_whole_volume_with_ghost_flags_cover_it_once(kind):
     # An image that every piece receives whole (SetInputData) but that
