@@ -89,7 +89,8 @@ constexpr int CubicGhostSamples = 2;
 // with the cells across its faces; and one for normals, whose gradient at a
 // point on the piece's face takes the cell (or the samples) beyond it, as
 // the serial run does. Otherwise none: image pieces share their boundary
-// samples, all the trilinear filter's surface needs.
+// samples, all the trilinear filter's surface needs, except where samples
+// equal the isovalue (see ContourGhostSamples()).
 int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel, bool normals)
 {
   if (reconstruction != vtkPreciseMarchingCubes::RECONSTRUCTION_TRILINEAR)
@@ -99,6 +100,19 @@ int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel,
   const bool subcells = topology == vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR &&
     epsilon > 0.0 && maxLevel >= 3;
   return subcells || normals ? 1 : 0;
+}
+
+// Ghost samples a piece is asked for and contoured with: those the run
+// reads (GhostSamples()), and at least one. Where a plane of samples equals
+// the isovalue, the cells on its two sides emit the same flat triangles with
+// opposite orientations, and the serial run cancels the pairs; a piece cut
+// along that plane cancels its copy only when it holds the cell across the
+// cut too (without it, the pieces' union had a double-sided sheet there
+// that the serial surface has not).
+int ContourGhostSamples(
+  int reconstruction, int topology, double epsilon, int maxLevel, bool normals)
+{
+  return std::max(1, GhostSamples(reconstruction, topology, epsilon, maxLevel, normals));
 }
 
 // Whether `dataExtent` is piece `piece` of `pieces` of `splitExtent`, as
@@ -684,14 +698,19 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     }
   }
   // The cells of the piece (ContourExtent, from RequestUpdateExtent()) are
-  // contoured. The cubic filters read one sample more around every cell,
-  // and a refined cell may depend on the cell across a face
-  // (GhostSamples()): then the ghost layer the input holds around the piece
-  // is contoured too, and the triangles of the ghost cells are dropped
-  // below. The prefilter of BSplineInterpolating couples whole lines of
-  // samples, so it reads all the input holds (the whole volume, as
-  // requested).
+  // contoured. The cubic filters read one sample more around every cell, a
+  // refined cell may depend on the cell across a face, and flat triangles in
+  // a face cancel against those of the cell across it
+  // (ContourGhostSamples()): the ghost layer the input holds around the piece
+  // is contoured too, and the triangles of the ghost cells are dropped below.
+  // The prefilter of BSplineInterpolating couples whole lines of samples, so
+  // it reads all the input holds (the whole volume, as requested).
   const int ghostSamples =
+    ContourGhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon,
+      this->MaxLevel, this->ComputeNormals != 0);
+  // The samples without which the surface next to a cut differs from the
+  // serial one on any data (not only where samples equal the isovalue).
+  const int neededSamples =
     GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel,
       this->ComputeNormals != 0);
   int sampleExtent[6];
@@ -767,7 +786,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     bool short_of_samples = false;
     for (int i = 0; ownSplit && i < 3; ++i)
     {
-      const int want = global ? std::numeric_limits<int>::max() : ghostSamples;
+      const int want = global ? std::numeric_limits<int>::max() : neededSamples;
       short_of_samples = short_of_samples ||
         (want > 0 && extent[2 * i] > whole[2 * i] &&
           extent[2 * i] - sampleExtent[2 * i] < std::min(want, extent[2 * i] - whole[2 * i])) ||
@@ -1517,21 +1536,21 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 }
 
 //------------------------------------------------------------------------------
-// The piece asked for downstream is passed upstream as is (image pieces
-// share their boundary samples, which is all plain Marching Cubes needs),
-// but without ghost levels: the surface of a ghost layer would belong to
-// two pieces. The piece's extent is kept in ContourExtent (the cells
-// contoured) in every case: a source shared with another consumer that
-// asked for ghost levels may still hold its ghost layer, which must not be
-// contoured (in pvbatch under MPI, a trilinear Precise Contour after a
-// refined one contoured it, overlapping the pieces). The cubic filters read
-// one more sample around every cell, and refinement that may mesh cells
-// again on sub-cells needs the cells across the piece's faces
-// (GhostSamples()): the input is asked for as many ghost levels around the
-// piece (for an update extent given as an extent, the extent grows by as
-// many samples instead), whose cells are contoured but not output.
-// BSplineInterpolating prefilters whole lines of samples, so it asks for
-// the whole volume in one piece.
+// The piece asked for downstream is passed upstream with the ghost levels the
+// filter needs, not those asked for downstream: the surface of a ghost layer
+// would belong to two pieces. The piece's extent is kept in ContourExtent
+// (the cells contoured) in every case: a source shared with another consumer
+// that asked for ghost levels may still hold its ghost layer, which must not
+// be contoured (in pvbatch under MPI, a trilinear Precise Contour after a
+// refined one contoured it, overlapping the pieces). Image pieces share their
+// boundary samples, but flat triangles in a piece's face cancel against those
+// of the cell across it, the cubic filters read one more sample around every
+// cell, and refinement that may mesh cells again on sub-cells needs the cells
+// across the piece's faces (ContourGhostSamples()): the input is asked for as
+// many ghost levels around the piece (for an update extent given as an
+// extent, the extent grows by as many samples instead), whose cells are
+// contoured but not output. BSplineInterpolating prefilters whole lines of
+// samples, so it asks for the whole volume in one piece.
 int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* request, vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
@@ -1545,8 +1564,8 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   }
   int ghostLevels = 0;
   const int ghostSamples =
-    GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel,
-      this->ComputeNormals != 0);
+    ContourGhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon,
+      this->MaxLevel, this->ComputeNormals != 0);
   if (outInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];

@@ -52,12 +52,15 @@
  * of a volume that share a layer of samples are bit-identical.
  *
  * In a distributed pipeline each piece contours the input cropped to the
- * requested update extent. For plain Marching Cubes with the trilinear
- * reconstruction filter (the default) and no normals, no ghost levels are
- * requested from the input: image pieces share their boundary samples, so
+ * requested update extent. Image pieces share their boundary samples, so
  * the union of the pieces' surfaces is the surface of the whole volume,
  * without cracks or overlaps (a piece that is a single layer of samples
- * holds no cell and has an empty output; a 2D input is an error).
+ * holds no cell and has an empty output; a 2D input is an error). Where a
+ * plane of samples equals the isovalue, the cells on its two sides emit
+ * the same flat triangles with opposite orientations, which cancel: so
+ * that a piece cut along such a plane sees the cells across it, the filter
+ * always asks for at least one ghost level, contours the cells across the
+ * piece's faces too and keeps only the triangles of the piece's own cells.
  * Normals at a point on a piece's face read
  * the samples beyond it, so with ComputeNormals on the filter asks for one
  * ghost level and keeps only the triangles of the piece's own cells (as
@@ -78,7 +81,8 @@
  * own cells (those its ghost array does not mark as duplicates), so the
  * pieces still cover the volume once; without the ghost layer the run
  * needs, the surface next to the cuts may then differ from the serial one,
- * and the filter warns. InterpolateAttributes gives every point the same
+ * and the filter warns (not for flat triangles on a cut where samples
+ * equal the isovalue). InterpolateAttributes gives every point the same
  * values in every piece, and never interpolates the input's ghost flags.
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in

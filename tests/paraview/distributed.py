@@ -29,9 +29,8 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 
 # The configurations compared: plain Marching Cubes and refined surfaces.
 # "ghosts": a filter downstream asks for a ghost level, which must not make
-# the pieces overlap (the filter asks its input for none, or for the ghost
-# layers that refinement on sub-cells or a cubic filter needs, and outputs
-# only its cells).
+# the pieces overlap (the filter asks its input for the ghost layers it
+# needs, not those asked for downstream, and outputs only its cells).
 # "same_as": the serial configuration whose triangles it must equal.
 # "input": "wavelet" (the default), "attributes" (the Wavelet with a second
 # point array, "aux"), "own-split" (OWN_SPLIT_SOURCE below: no ghost
@@ -45,7 +44,8 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 CONFIGS = {
     "mc": dict(Epsilon=0.0, MaxLevel=0),
     # Normals read the samples beyond the piece's faces (one ghost level);
-    # without them none is asked for.
+    # without them one is asked for too (flat triangles on a cut cancel
+    # against the cells across it), which the Wavelet does not need.
     "mc-no-normals": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0),
     "mc-central-differences": dict(Epsilon=0.0, MaxLevel=0, NormalMode="Central Difference"),
     "mc-attributes": dict(Epsilon=0.0, MaxLevel=0, InterpolateAttributes=1, input="attributes"),
@@ -56,7 +56,7 @@ CONFIGS = {
     "refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1"),
     # After "refined", which asks for a ghost level (a cell may be meshed
     # again on sub-cells): the shared Wavelet still holds that layer, which
-    # this one (no ghost level: classic topology) must not contour.
+    # this one must not contour (it keeps its own cells' triangles).
     "refined-classic-B": dict(Epsilon=0.002, MaxLevel=3, Rule="B", Topology="Classic"),
     # The same through Group Datasets: each rank's block is its piece with
     # that ghost layer, whose cells (marked as duplicates) must not be

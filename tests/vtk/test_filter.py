@@ -901,6 +901,63 @@ def test_pieces_equal_the_serial_surface(name):
         assert np.array_equal(union, serial), f"{pieces} pieces"
 
 
+@pytest.mark.parametrize("props", [
+    {"Epsilon": 0.0},
+    {"Epsilon": 0.01, "Topology": 1},
+    {"Epsilon": 0.01, "MaxLevel": 2},
+])
+def test_pieces_cut_through_samples_at_the_isovalue(props, rng):
+    # Where a plane of samples equals the isovalue, the cells on both sides
+    # of it emit the same flat triangles with opposite orientations, which
+    # cancel: a volume whose inside is that plane alone has no surface. A
+    # piece holding the cells on one side only keeps its copy unless it sees
+    # the cells across the cut: without normals (which ask for a ghost level
+    # anyway), two pieces cut along the plane gave a double-sided sheet that
+    # the serial run has not.
+    from vtkmodules.vtkCommonExecutionModel import vtkExtentTranslator
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    flat = np.zeros((3, 3, 5))
+    flat[:, :, 2] = 1.0
+    # Integer data where ties are everywhere, cut into 2 to 5 pieces.
+    ties = rng.integers(0, 4, size=(7, 8, 9)).astype(np.float64)
+    rt = vtkRTAnalyticSource()
+    rt.SetWholeExtent(-6, 6, -6, 6, -6, 6)
+    rt.Update()
+    wavelet_ties = vtk_to_numpy(rt.GetOutput().GetPointData().GetScalars()).reshape(13, 13, 13)
+    wavelet_ties = np.round(wavelet_ties / 20.0)
+    cases = [(flat, 1.0, (2,)), (ties, 2.0, (2, 3, 4, 5)), (wavelet_ties, 8.0, (2, 3, 4))]
+    for values, iso, counts in cases:
+        image = image_from_array(values)
+        assert (values == iso).any()
+
+        def run(piece, pieces):
+            f = vtkPreciseMarchingCubes()
+            f.SetInputData(image)
+            f.SetValue(0, iso)
+            f.SetComputeNormals(0)
+            f.SetOutputPointsPrecision(1)
+            for name, v in props.items():
+                getattr(f, "Set" + name)(v)
+            observer = ErrorObserver(f)
+            f.UpdatePiece(piece, pieces, 0)
+            assert not observer.errors and not observer.warnings
+            return coordinate_triangles(f.GetOutput())
+
+        serial = run(0, 1)
+        if values is flat:
+            assert len(serial) == 0
+            extent = [0] * 6
+            vtkExtentTranslator().PieceToExtentThreadSafe(
+                0, 2, 0, [0, 4, 0, 2, 0, 2], extent, vtkExtentTranslator.BLOCK_MODE, 0)
+            assert extent[1] == 2  # the cut is the plane at the isovalue
+        for pieces in counts:
+            union = np.concatenate([run(piece, pieces) for piece in range(pieces)])
+            union = union[np.lexsort(union.T[::-1])]
+            assert union.shape == serial.shape and np.array_equal(union, serial), \
+                f"{values.shape}, {pieces} pieces: {len(union)} triangles, serial {len(serial)}"
+
+
 @pytest.mark.parametrize("source", ["SetInputData", "vtkRTAnalyticSource"])
 @pytest.mark.parametrize("props", [{}, {"Epsilon": 0.0, "ComputeNormals": 0}])
 def test_pieces_without_cells_are_empty_without_an_error(source, props, rng):
