@@ -9,6 +9,7 @@
 //! numbered slab by slab in order of first use, so the output does not
 //! depend on the number of threads.
 
+use std::mem::MaybeUninit;
 use std::time::Duration;
 
 use glam::DVec3;
@@ -56,7 +57,12 @@ pub(crate) fn assemble(
             return Vec::new();
         }
         let plane = planes[s].0;
-        let mut before: KeyMap<u32> = KeyMap::default();
+        // Sized up front: growing it rehashed the map several times a
+        // plane (a quarter of the linking's time on the EPI scan of the
+        // benchmark cut into nine slabs).
+        let on_plane = outs[s - 1].verts.iter().filter(|v| v.z == plane).count();
+        let mut before: KeyMap<u32> =
+            KeyMap::with_capacity_and_hasher(on_plane, Default::default());
         for (i, v) in outs[s - 1].verts.iter().enumerate() {
             if v.z == plane {
                 before.insert(key(*v), i as u32);
@@ -79,10 +85,11 @@ pub(crate) fn assemble(
         .collect();
     let starts = offsets(&fresh);
     // (One slab: its points are taken over in place, below.)
+    let total_fresh = fresh.iter().sum();
     let mut index_points = if n == 1 {
         Vec::new()
     } else {
-        zeroed(exec, &recycle::POINTS, fresh.iter().sum())?
+        room(&recycle::POINTS, total_fresh)?
     };
     let mut remaps: Vec<Vec<u64>> = if n == 1 {
         vec![Vec::new()]
@@ -90,13 +97,16 @@ pub(crate) fn assemble(
         let items = outs
             .iter()
             .zip(&links)
-            .zip(split_mut(&mut index_points, &fresh))
+            .zip(split_mut(
+                &mut index_points.spare_capacity_mut()[..total_fresh],
+                &fresh,
+            ))
             .zip(&starts)
             .collect();
-        exec.map(items, |(((o, link), out), &start)| {
+        let remaps = exec.map(items, |(((o, link), out), &start)| {
             if link.is_empty() {
                 for (w, v) in out.iter_mut().zip(&o.verts) {
-                    *w = v.to_array();
+                    w.write(v.to_array());
                 }
                 return Vec::new();
             }
@@ -109,13 +119,20 @@ pub(crate) fn assemble(
                     remap.push(u64::MAX);
                     l += 1;
                 } else {
-                    out[w] = v.to_array();
+                    out[w].write(v.to_array());
                     remap.push((start + w) as u64);
                     w += 1;
                 }
             }
+            // Every point is either linked or written: the part is full.
+            assert_eq!(w, out.len(), "a slab's part of the points left unwritten");
             remap
-        })?
+        })?;
+        // SAFETY: every part of the first `total_fresh` spare slots was
+        // written in full (`exec.map` returned Ok: every task ran, and each
+        // checked its count).
+        unsafe { index_points.set_len(total_fresh) };
+        remaps
     };
     for s in 1..n {
         let (done, rest) = remaps.split_at_mut(s);
@@ -130,19 +147,31 @@ pub(crate) fn assemble(
     // triangle would have no area and its edges would cancel in pairs, so
     // it is dropped below without opening the surface).
     let counts: Vec<usize> = outs.iter().map(|o| o.tris.len()).collect();
-    let mut triangles = zeroed(exec, &recycle::MESH_TRIS, counts.iter().sum())?;
+    let total_tris = counts.iter().sum();
+    // Written in place of the spare capacity, without zeroing it first
+    // (a second pass over the largest arrays).
+    let mut triangles = room(&recycle::MESH_TRIS, total_tris)?;
     let mut levels = if n == 1 {
         std::mem::take(&mut outs[0].levels)
     } else {
-        zeroed(exec, &recycle::LEVELS, triangles.len())?
+        room(&recycle::LEVELS, total_tris)?
     };
     let tri_starts = offsets(&counts);
+    let level_parts = if n == 1 {
+        // The slab's levels are the mesh's: nothing to copy.
+        vec![Default::default()]
+    } else {
+        split_mut(&mut levels.spare_capacity_mut()[..total_tris], &counts)
+    };
     let items = outs
         .iter()
         .zip(&remaps)
         .zip(&starts)
-        .zip(split_mut(&mut triangles, &counts))
-        .zip(split_mut(&mut levels, &counts))
+        .zip(split_mut(
+            &mut triangles.spare_capacity_mut()[..total_tris],
+            &counts,
+        ))
+        .zip(level_parts)
         .zip(&tri_starts)
         .collect();
     let found: Vec<(Vec<Candidate>, Vec<usize>)> =
@@ -153,38 +182,63 @@ pub(crate) fn assemble(
                     degenerate.push(t0 + w);
                 }
             };
+            assert_eq!(
+                tri_out.len(),
+                o.tris.len(),
+                "a slab's part of the triangles"
+            );
             if r.is_empty() {
                 // Numbered by a shift alone (most volumes' slabs, and every
                 // single slab): the ids are shifted as flat arrays, which
                 // the compiler turns into vector code (not so the triples).
                 let start = start as u64;
-                for (g, &v) in flat_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
-                    *g = start + v as u64;
+                for (g, &v) in flat_uninit_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
+                    g.write(start + v as u64);
                 }
                 for (w, t) in o.tris.iter().enumerate() {
                     if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                        note(w, tri_out[w]);
+                        note(w, t.map(|v| start + v as u64));
                     }
                 }
             } else {
                 for (w, t) in o.tris.iter().enumerate() {
                     let g = t.map(|v| global(r, start, v));
-                    tri_out[w] = g;
+                    tri_out[w].write(g);
                     note(w, g);
                 }
             }
             let cand = o
                 .flat_tris
                 .iter()
-                .map(|&w| (t0 + w as usize, tri_out[w as usize]))
+                .map(|&w| {
+                    let t = o.tris[w as usize];
+                    (t0 + w as usize, t.map(|v| global(r, start, v)))
+                })
                 .filter(|&(i, _)| degenerate.binary_search(&i).is_err())
                 .map(|(i, g)| Candidate::new(i, g))
                 .collect::<Vec<_>>();
             if n > 1 {
-                level_out.copy_from_slice(&o.levels);
+                assert_eq!(
+                    level_out.len(),
+                    o.levels.len(),
+                    "a slab's part of the levels"
+                );
+                for (d, &l) in level_out.iter_mut().zip(&o.levels) {
+                    d.write(l);
+                }
             }
             (cand, degenerate)
         })?;
+    // SAFETY: every slab's part of the first `total_tris` spare slots of
+    // `triangles`, and of `levels` for more than one slab, was written in
+    // full (`exec.map` returned Ok: every task ran; each checked its
+    // part's length against its slab's and wrote every element).
+    unsafe {
+        triangles.set_len(total_tris);
+        if n > 1 {
+            levels.set_len(total_tris);
+        }
+    }
     for r in remaps {
         recycle::REMAPS.give(r);
     }
@@ -249,9 +303,10 @@ fn flat<T>(triangles: &[[T; 3]]) -> &[T] {
     unsafe { std::slice::from_raw_parts(triangles.as_ptr().cast(), triangles.len() * 3) }
 }
 
-/// [`flat`], mutable.
-fn flat_mut<T>(triangles: &mut [[T; 3]]) -> &mut [T] {
-    // SAFETY: as in `flat`; the borrow is handed on whole.
+/// [`flat`], for triangles not written yet.
+fn flat_uninit_mut<T>(triangles: &mut [MaybeUninit<[T; 3]>]) -> &mut [MaybeUninit<T>] {
+    // SAFETY: `MaybeUninit<[T; 3]>` is laid out as `[T; 3]`, so as three
+    // `MaybeUninit<T>`; the borrow is handed on whole.
     unsafe { std::slice::from_raw_parts_mut(triangles.as_mut_ptr().cast(), triangles.len() * 3) }
 }
 
@@ -449,16 +504,13 @@ fn split_mut<'a, T>(mut v: &'a mut [T], lengths: &[usize]) -> Vec<&'a mut [T]> {
         .collect()
 }
 
-/// `n` default values, in a buffer from `bin` when it keeps one, written
-/// on `exec`; an error when the memory is not available.
-fn zeroed<T: Default + Clone + Send + Sync + 'static>(
-    exec: Exec<'_>,
-    bin: &Bin<Vec<T>>,
-    n: usize,
-) -> Result<Vec<T>, Error> {
+/// An empty buffer with room for `n` values, from `bin` when it keeps
+/// one; an error when the memory is not available. The caller writes the
+/// values into its spare capacity (no zeroing first: the assembly writes
+/// every value once).
+fn room<T: Send + 'static>(bin: &Bin<Vec<T>>, n: usize) -> Result<Vec<T>, Error> {
     let mut v = bin.take(n);
     reserve(&mut v, n)?;
-    exec.fill_default(&mut v, n)?;
     Ok(v)
 }
 

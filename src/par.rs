@@ -88,24 +88,6 @@ impl Exec<'_> {
         }
         Ok(())
     }
-
-    /// Appends `n` default values to `dst` (in parallel, so that each
-    /// worker first touches, and faults in, its own pages).
-    pub(crate) fn fill_default<T>(self, dst: &mut Vec<T>, n: usize) -> Result<(), Error>
-    where
-        T: Default + Clone + Send + Sync,
-    {
-        match self {
-            Exec::Helpers(h) => return Exec::External(h).fill_default(dst, n),
-            Exec::Serial => dst.resize(dst.len() + n, T::default()),
-            Exec::External(ex) => fill_spare(ex, dst, n, chunk_len(n, ex), |out, _| {
-                for w in out {
-                    w.write(T::default());
-                }
-            })?,
-        }
-        Ok(())
-    }
 }
 
 /// Runs `f` on a scoped pool of `threads` threads, all joined before it
@@ -133,8 +115,8 @@ thread_local! {
     pub(crate) static POOL_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// Items a task of an external executor gets in [`Exec::extend`] and
-/// [`Exec::fill_default`]: a few chunks a worker, none tiny.
+/// Items a task of an external executor gets in [`Exec::extend`]: a few
+/// chunks a worker, none tiny.
 fn chunk_len(n: usize, ex: &dyn Executor) -> usize {
     // The executor's figure is the host's: clamped as the slabs' is (a
     // huge one overflowed the product).
@@ -357,9 +339,7 @@ pub(crate) mod tests {
                 let mapped = exec.map(src.clone(), |x| x * x + 1).unwrap();
                 let mut extended = vec![5u64];
                 exec.extend(&mut extended, &src, |&x| x ^ 0x55).unwrap();
-                let mut filled = vec![9u32];
-                exec.fill_default(&mut filled, 1000).unwrap();
-                out.push((mapped, extended, filled));
+                out.push((mapped, extended));
             }
         });
         assert_eq!(out[0], out[1]);
@@ -367,8 +347,6 @@ pub(crate) mod tests {
         assert_eq!(out[0].0[3], src[3] * src[3] + 1);
         assert_eq!(out[0].1.len(), 10_001);
         assert_eq!(out[0].1[1], src[0] ^ 0x55);
-        assert_eq!(out[0].2.len(), 1001);
-        assert!(out[0].2[0] == 9 && out[0].2[1..].iter().all(|&x| x == 0));
     }
 
     /// Runs the tasks on `threads` scoped threads in a shuffled order.
