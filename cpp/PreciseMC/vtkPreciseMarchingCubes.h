@@ -36,7 +36,10 @@
  * (p1 - p0) x (p2 - p0) of each triangle points towards lower scalar
  * values, as in vtkMarchingCubes. With Topology Classic and Epsilon 0 the
  * output is the surface of vtkMarchingCubes (same points, triangles and
- * winding; point order differs).
+ * winding; point order differs), except where samples equal the isovalue:
+ * the flat triangles that two cells emit there on a shared face, in
+ * opposite orientations, cancel in pairs (vtkMarchingCubes keeps both, a
+ * double-sided sheet of zero thickness).
  *
  * The interface follows vtkFlyingEdges3D: several contour values may be
  * given and their surfaces are appended into one output; point normals,
