@@ -679,7 +679,38 @@ bool IsNrrd(const std::string& path)
 
 }
 
+namespace
+{
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path);
+}
+
+// A failure inside a reader (an allocation of a size the header made up, a
+// C++ exception from VTK) is reported as a failure to read that file, with
+// its name, not as a bare "out of memory" or library message.
 vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
+{
+  try
+  {
+    return ReadVolumeUnchecked(path);
+  }
+  catch (const Error&)
+  {
+    throw;
+  }
+  catch (const std::bad_alloc&)
+  {
+    Unreadable(path, "out of memory while reading it (does its header declare a larger volume "
+                     "than the file holds?)");
+  }
+  catch (const std::exception& e)
+  {
+    Unreadable(path, std::string("the reader failed (") + e.what() + ")");
+  }
+}
+
+namespace
+{
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
 {
   vtkSmartPointer<vtkAlgorithm> reader;
   std::vector<long long> nrrdSizes;
@@ -801,6 +832,7 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
     ApplyNiftiScaling(nifti, volume);
   }
   return volume;
+}
 }
 
 std::string DescribeVolume(vtkImageData* volume)

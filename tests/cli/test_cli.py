@@ -1272,6 +1272,32 @@ def vti_pieces_must_cover_the_whole_extent():
 
 
 @check
+def a_reader_failing_inside_names_the_file():
+    """A header that makes VTK's XML reader throw (a negative number of
+    components: std::length_error from its arrays) gave the bare library
+    message 'precisemc: error: vector::_M_default_append', without the
+    file or what happened; it is reported as a failure to read that file."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    d = fresh_dir("reader-throws")
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(0, 5, 0, 5, 0, 5)
+    good = os.path.join(d, "good.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(good)
+    w.SetInputConnection(source.GetOutputPort())
+    w.SetDataModeToAscii()
+    w.Write()
+    with open(good) as f:
+        text = f.read()
+    bad = os.path.join(d, "bad.vti")
+    with open(bad, "w") as f:
+        f.write(re.sub(r'(<DataArray type="Float32" Name="RTData")',
+                       r'\1 NumberOfComponents="-3"', text, count=1))
+    out = os.path.join(d, "o.vtp")
+    expect_error([bad, "-v", "150", "-o", out], "bad.vti", outputs=[out], status=1)
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
