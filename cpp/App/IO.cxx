@@ -437,6 +437,46 @@ std::string XmlAttribute(const std::string& tag, const std::string& name)
   return "";
 }
 
+// A .vti whose <ImageData> Origin, Spacing or Direction is not all finite
+// numbers: VTK's reader drops an attribute it cannot parse ("NaN",
+// "Infinity", a word) and uses the default (origin 0, spacing 1, identity)
+// without a word, so the surface came out at a place and scale the file
+// does not give.
+void CheckVtiGeometry(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+  {
+    return;
+  }
+  std::string head(1 << 16, '\0');
+  in.read(&head[0], static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  const size_t tag = head.find("<ImageData");
+  const size_t end = tag == std::string::npos ? tag : head.find('>', tag);
+  if (end == std::string::npos)
+  {
+    return;
+  }
+  const std::string element = head.substr(tag, end - tag);
+  for (const char* name : { "Origin", "Spacing", "Direction" })
+  {
+    const std::string value = XmlAttribute(element, name);
+    std::istringstream words(value);
+    std::string word;
+    while (words >> word)
+    {
+      char* stop = nullptr;
+      const double v = std::strtod(word.c_str(), &stop);
+      if (stop != word.c_str() + word.size() || !std::isfinite(v))
+      {
+        Unreadable(path, std::string("its ") + name + " \"" + value +
+            "\" is not all finite numbers (VTK's reader would use the default instead)");
+      }
+    }
+  }
+}
+
 // A .vti whose uncompressed raw appended data was cut short: VTK 9.1's
 // reader fills the missing values with zeros and reports nothing. Each
 // array's block (a byte count of header_type, then the bytes) must end
@@ -729,6 +769,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
     reader = ReaderFor(path, Extension(path));
     if (Extension(path) == ".vti")
     {
+      CheckVtiGeometry(path);
       CheckAppendedRawData(path);
     }
   }

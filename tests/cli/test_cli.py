@@ -1298,6 +1298,39 @@ def a_reader_failing_inside_names_the_file():
 
 
 @check
+def vti_geometry_that_is_not_finite_is_refused():
+    """VTK's XML reader drops an Origin, Spacing or Direction it cannot
+    parse ('NaN', 'Infinity', a word) and uses the default: a .vti with
+    Spacing="NaN 1 1" was contoured at spacing 1, exit status 0. Such files
+    are refused; the file with finite values still reads."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    d = fresh_dir("vti-geometry")
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(0, 9, 0, 8, 0, 7)
+    good = os.path.join(d, "good.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(good)
+    w.SetInputConnection(source.GetOutputPort())
+    w.SetDataModeToAscii()
+    w.Write()
+    ok(good, "-v", "150", "-o", os.path.join(d, "good.vtp"))
+    out = os.path.join(d, "o.vtp")
+    with open(good) as f:
+        text = f.read()
+    for attr, value in (("Spacing", "NaN 1 1"), ("Origin", "0 Infinity 0"),
+                        ("Spacing", "1 one 1"), ("Direction", "1 0 0 0 1 0 0 0 nan")):
+        m = re.search(attr + r'="[^"]*"', text)
+        expect(m, f"no {attr} in the written file")
+        bad = os.path.join(d, "bad.vti")
+        with open(bad, "w") as f:
+            f.write(text.replace(m.group(0), f'{attr}="{value}"', 1))
+        try:
+            expect_error([bad, "-v", "150", "-o", out], attr, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{attr}={value!r}: {e}")
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
