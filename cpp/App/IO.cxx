@@ -43,6 +43,7 @@
 #include <sstream>
 #include <vector>
 
+#include <dirent.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -655,6 +656,101 @@ private:
 };
 vtkStandardNewMacro(vtkPieceCheckingImageDataReader);
 
+// VTK's DICOM reader, which leaves out a file of the series it cannot
+// parse (empty, cut short, not DICOM) without a word: the volume then
+// lacks that slice and the slices around it close up. It tells which files
+// it took.
+class vtkSliceListingDICOMReader : public vtkDICOMImageReader
+{
+public:
+  static vtkSliceListingDICOMReader* New();
+  vtkTypeMacro(vtkSliceListingDICOMReader, vtkDICOMImageReader);
+
+  // The names (without the directory) of the files read as the series.
+  std::vector<std::string> TakenFiles()
+  {
+    std::vector<std::string> names;
+    for (int i = 0; i < this->GetNumberOfDICOMFileNames(); ++i)
+    {
+      std::string name = this->GetDICOMFileName(i) ? this->GetDICOMFileName(i) : "";
+      names.push_back(name.substr(name.find_last_of('/') + 1));
+    }
+    return names;
+  }
+
+protected:
+  vtkSliceListingDICOMReader() = default;
+  ~vtkSliceListingDICOMReader() override = default;
+
+private:
+  vtkSliceListingDICOMReader(const vtkSliceListingDICOMReader&) = delete;
+  void operator=(const vtkSliceListingDICOMReader&) = delete;
+};
+vtkStandardNewMacro(vtkSliceListingDICOMReader);
+
+// The extension of a file name, lower case ("" if none).
+std::string LowerExtension(const std::string& name)
+{
+  const size_t dot = name.find_last_of('.');
+  std::string ext = dot == std::string::npos || dot == 0 ? "" : name.substr(dot);
+  for (char& c : ext)
+  {
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  }
+  return ext;
+}
+
+// A file of the directory `dir` named like the series' files (the same
+// extension) that the reader left out, and that VTK's reader cannot read
+// on its own either (so not a slice of another series in the same
+// directory): "" when there is none.
+std::string UnreadableSlice(const std::string& dir, const std::vector<std::string>& taken)
+{
+  std::vector<std::string> extensions;
+  for (const std::string& name : taken)
+  {
+    extensions.push_back(LowerExtension(name));
+  }
+  DIR* d = opendir(dir.c_str());
+  if (!d)
+  {
+    return "";
+  }
+  std::vector<std::string> others;
+  while (dirent* entry = readdir(d))
+  {
+    const std::string name = entry->d_name;
+    if (name == "." || name == ".." ||
+      std::find(taken.begin(), taken.end(), name) != taken.end() ||
+      std::find(extensions.begin(), extensions.end(), LowerExtension(name)) == extensions.end())
+    {
+      continue;
+    }
+    if (IsRegularFile(dir + "/" + name))
+    {
+      others.push_back(name);
+    }
+  }
+  closedir(d);
+  std::sort(others.begin(), others.end());
+  for (const std::string& name : others)
+  {
+    auto alone = vtkSmartPointer<vtkDICOMImageReader>::New();
+    alone->SetFileName((dir + "/" + name).c_str());
+    {
+      StderrCapture capture;
+      alone->Update();
+    }
+    TakeVTKErrors();
+    vtkImageData* image = alone->GetOutput();
+    if (!image || image->GetNumberOfPoints() == 0)
+    {
+      return name;
+    }
+  }
+  return "";
+}
+
 // The reader for a file, after a cheap look at its header when the reader
 // offers one, so that a file of another format is reported as such.
 vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
@@ -756,7 +852,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
   std::vector<long long> nrrdSizes;
   if (IsDirectory(path))
   {
-    auto dicom = vtkSmartPointer<vtkDICOMImageReader>::New();
+    auto dicom = vtkSmartPointer<vtkSliceListingDICOMReader>::New();
     dicom->SetDirectoryName(path.c_str());
     reader = dicom;
   }
@@ -790,6 +886,14 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
     if (!image || image->GetNumberOfPoints() == 0)
     {
       Unreadable(path, "no DICOM series found in the directory");
+    }
+    const std::string skipped =
+      UnreadableSlice(path, vtkSliceListingDICOMReader::SafeDownCast(reader)->TakenFiles());
+    if (!skipped.empty())
+    {
+      Unreadable(path, "its file '" + skipped +
+          "' is not a readable DICOM slice (empty, cut short or not DICOM): the series would "
+          "be read without it");
     }
   }
   else

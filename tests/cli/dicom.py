@@ -26,11 +26,11 @@ def us(v):
     return struct.pack("<H", v)
 
 
-def write_series(d, vol, spacing):
-    """Writes vol (int16, z-y-x order) as d/slice001.dcm, ...; spacing is (x, y, z)."""
+def write_series(d, vol, spacing, series="1.2.826.0.1.3680043.9.7777.1", prefix="slice"):
+    """Writes vol (int16, z-y-x order) as d/slice001.dcm, ... (`prefix`
+    instead of "slice"), series instance UID `series`; spacing is (x, y, z)."""
     nz, ny, nx = vol.shape
     os.makedirs(d, exist_ok=True)
-    series = "1.2.826.0.1.3680043.9.7777.1"
     for k in range(nz):
         inst = f"{series}.{k + 1}"
         meta_body = (elem(2, 1, "OB", b"\0\1") + elem(2, 2, "UI", "1.2.840.10008.5.1.4.1.1.2")
@@ -50,5 +50,5 @@ def write_series(d, vol, spacing):
             elem(0x28, 0x102, "US", us(15)), elem(0x28, 0x103, "US", us(1)),
             elem(0x7FE0, 0x10, "OW", vol[k].astype("<i2").tobytes()),
         ])
-        with open(os.path.join(d, f"slice{k + 1:03d}.dcm"), "wb") as f:
+        with open(os.path.join(d, f"{prefix}{k + 1:03d}.dcm"), "wb") as f:
             f.write(b"\0" * 128 + b"DICM" + meta + ds)
