@@ -438,6 +438,17 @@ std::string XmlAttribute(const std::string& tag, const std::string& name)
   return "";
 }
 
+// The first `bytes` bytes of a file (fewer if it is shorter; "" if it
+// cannot be opened).
+std::string FileHead(const std::string& path, size_t bytes)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::string head(in ? bytes : 0, '\0');
+  in.read(&head[0], static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(std::max<std::streamsize>(in.gcount(), 0)));
+  return head;
+}
+
 // A .vti whose <ImageData> Origin, Spacing or Direction is not all finite
 // numbers: VTK's reader drops an attribute it cannot parse ("NaN",
 // "Infinity", a word) and uses the default (origin 0, spacing 1, identity)
@@ -445,14 +456,7 @@ std::string XmlAttribute(const std::string& tag, const std::string& name)
 // does not give.
 void CheckVtiGeometry(const std::string& path)
 {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-  {
-    return;
-  }
-  std::string head(1 << 16, '\0');
-  in.read(&head[0], static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<size_t>(in.gcount()));
+  const std::string head = FileHead(path, 1 << 16);
   const size_t tag = head.find("<ImageData");
   const size_t end = tag == std::string::npos ? tag : head.find('>', tag);
   if (end == std::string::npos)
@@ -485,16 +489,14 @@ void CheckVtiGeometry(const std::string& path)
 // (Compressed and base64 data are not looked at here.)
 void CheckAppendedRawData(const std::string& path)
 {
+  // The XML part comes first and is small; the appended data follows the
+  // '_' after <AppendedData ...>.
+  const std::string head = FileHead(path, 1 << 20);
   std::ifstream in(path, std::ios::binary);
   if (!in)
   {
     return;
   }
-  // The XML part comes first and is small; the appended data follows the
-  // '_' after <AppendedData ...>.
-  std::string head(1 << 20, '\0');
-  in.read(&head[0], static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<size_t>(in.gcount()));
   const size_t appended = head.find("<AppendedData");
   const size_t fileTag = head.find("<VTKFile");
   if (appended == std::string::npos || fileTag == std::string::npos)
@@ -688,18 +690,6 @@ private:
 };
 vtkStandardNewMacro(vtkSliceListingDICOMReader);
 
-// The extension of a file name, lower case ("" if none).
-std::string LowerExtension(const std::string& name)
-{
-  const size_t dot = name.find_last_of('.');
-  std::string ext = dot == std::string::npos || dot == 0 ? "" : name.substr(dot);
-  for (char& c : ext)
-  {
-    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  }
-  return ext;
-}
-
 // A file of the directory `dir` named like the series' files (the same
 // extension) that the reader left out, and that VTK's reader cannot read
 // on its own either (so not a slice of another series in the same
@@ -709,7 +699,7 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
   std::vector<std::string> extensions;
   for (const std::string& name : taken)
   {
-    extensions.push_back(LowerExtension(name));
+    extensions.push_back(Extension(name));
   }
   DIR* d = opendir(dir.c_str());
   if (!d)
@@ -722,7 +712,7 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
     const std::string name = entry->d_name;
     if (name == "." || name == ".." ||
       std::find(taken.begin(), taken.end(), name) != taken.end() ||
-      std::find(extensions.begin(), extensions.end(), LowerExtension(name)) == extensions.end())
+      std::find(extensions.begin(), extensions.end(), Extension(name)) == extensions.end())
     {
       continue;
     }

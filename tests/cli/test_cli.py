@@ -1260,19 +1260,11 @@ def vti_pieces_must_cover_the_whole_extent():
     contoured with those samples zero or uninitialised, exit status 0.
     Such files are refused; a file of several pieces that cover the whole
     extent reads as one piece."""
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
     d = fresh_dir("vti-pieces")
-    source = vtkRTAnalyticSource()
-    source.SetWholeExtent(0, 15, 0, 13, 0, 11)
     whole = os.path.join(d, "whole.vti")
     pieces = os.path.join(d, "pieces.vti")
     for path, count in ((whole, 1), (pieces, 3)):
-        w = vtkXMLImageDataWriter()
-        w.SetFileName(path)
-        w.SetInputConnection(source.GetOutputPort())
-        w.SetNumberOfPieces(count)
-        w.SetDataModeToAscii()
-        w.Write()
+        write_wavelet_vti(path, (0, 15, 0, 13, 0, 11), count)
     a = ok(whole, "-v", "150", "-o", os.path.join(d, "whole.vtp"))
     b = ok(pieces, "-v", "150", "-o", os.path.join(d, "pieces.vtp"))
     expect(table_value(a.stdout, "output triangles") == table_value(b.stdout, "output triangles"),
@@ -1304,24 +1296,30 @@ def vti_pieces_must_cover_the_whole_extent():
             raise Failure(f"{name}: {e}")
 
 
+def write_wavelet_vti(path, extent, pieces=1):
+    """VTK's wavelet source (scalars "RTData") over `extent`, written as an
+    ASCII .vti of `pieces` pieces; returns the file's text."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(*extent)
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputConnection(source.GetOutputPort())
+    w.SetNumberOfPieces(pieces)
+    w.SetDataModeToAscii()
+    w.Write()
+    with open(path) as f:
+        return f.read()
+
+
 @check
 def a_reader_failing_inside_names_the_file():
     """A header that makes VTK's XML reader throw (a negative number of
     components: std::length_error from its arrays) gave the bare library
     message 'precisemc: error: vector::_M_default_append', without the
     file or what happened; it is reported as a failure to read that file."""
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
     d = fresh_dir("reader-throws")
-    source = vtkRTAnalyticSource()
-    source.SetWholeExtent(0, 5, 0, 5, 0, 5)
-    good = os.path.join(d, "good.vti")
-    w = vtkXMLImageDataWriter()
-    w.SetFileName(good)
-    w.SetInputConnection(source.GetOutputPort())
-    w.SetDataModeToAscii()
-    w.Write()
-    with open(good) as f:
-        text = f.read()
+    text = write_wavelet_vti(os.path.join(d, "good.vti"), (0, 5, 0, 5, 0, 5))
     bad = os.path.join(d, "bad.vti")
     with open(bad, "w") as f:
         f.write(re.sub(r'(<DataArray type="Float32" Name="RTData")',
@@ -1336,20 +1334,11 @@ def vti_geometry_that_is_not_finite_is_refused():
     parse ('NaN', 'Infinity', a word) and uses the default: a .vti with
     Spacing="NaN 1 1" was contoured at spacing 1, exit status 0. Such files
     are refused; the file with finite values still reads."""
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
     d = fresh_dir("vti-geometry")
-    source = vtkRTAnalyticSource()
-    source.SetWholeExtent(0, 9, 0, 8, 0, 7)
     good = os.path.join(d, "good.vti")
-    w = vtkXMLImageDataWriter()
-    w.SetFileName(good)
-    w.SetInputConnection(source.GetOutputPort())
-    w.SetDataModeToAscii()
-    w.Write()
+    text = write_wavelet_vti(good, (0, 9, 0, 8, 0, 7))
     ok(good, "-v", "150", "-o", os.path.join(d, "good.vtp"))
     out = os.path.join(d, "o.vtp")
-    with open(good) as f:
-        text = f.read()
     for attr, value in (("Spacing", "NaN 1 1"), ("Origin", "0 Infinity 0"),
                         ("Spacing", "1 one 1"), ("Direction", "1 0 0 0 1 0 0 0 nan")):
         m = re.search(attr + r'="[^"]*"', text)
