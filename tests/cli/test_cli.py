@@ -1175,6 +1175,21 @@ def header_errors_stop_the_read():
             raise Failure(f"{name}: {e}")
 
 
+def refuse_nrrd_headers(d, head, data, cases):
+    """Each (name, fields, fragment) of `cases`: the NRRD file `d/name` of
+    header `head % fields` and samples `data` is refused, the error
+    containing `fragment`."""
+    out = os.path.join(d, "o.vtp")
+    for name, fields, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write((head % fields).encode() + data.tobytes())
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+
+
 @check
 def nrrd_dimensions_vtk_crashes_on_are_refused():
     """VTK 9.1's NRRD reader reads volumes of dimension 3 (or 4, the first
@@ -1197,14 +1212,7 @@ def nrrd_dimensions_vtk_crashes_on_are_refused():
         ("more-sizes.nrrd", "dimension: 3\nsizes: 10 10 5 2\n", "4 sizes"),
         ("fewer-sizes.nrrd", "dimension: 4\nsizes: 10 10 10\n", "3 sizes"),
     ]
-    for name, fields, fragment in cases:
-        path = os.path.join(d, name)
-        with open(path, "wb") as f:
-            f.write((head % fields).encode() + data.tobytes())
-        try:
-            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
-        except Failure as e:
-            raise Failure(f"{name}: {e}")
+    refuse_nrrd_headers(d, head, data, cases)
     # Dimension 4 with a first axis of vector components reads.
     path = os.path.join(d, "vector.nrrd")
     with open(path, "wb") as f:
@@ -1232,14 +1240,7 @@ def nrrd_4d_with_a_spatial_first_axis_is_refused():
         ("directions.nrrd", "space: 3D-right-handed\n"
          "space directions: (1,0,0) (0,1,0) (0,0,1) none\n", "space direction"),
     ]
-    for name, fields, fragment in cases:
-        path = os.path.join(d, name)
-        with open(path, "wb") as f:
-            f.write((head % fields).encode() + data.tobytes())
-        try:
-            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
-        except Failure as e:
-            raise Failure(f"{name}: {e}")
+    refuse_nrrd_headers(d, head, data, cases)
     # A first axis of vectors, however it is said, reads.
     for name, fields in (("vector.nrrd", "kinds: vector domain domain domain\n"),
                          ("none.nrrd", "space: 3D-right-handed\n"
