@@ -597,7 +597,8 @@ int main(int argc, char* argv[])
         if (panel.MCDropped > 0)
         {
           table << Row("MC non-finite", pmcapp::Grouped(panel.MCDropped) +
-              " vtkMarchingCubes triangles in cells with NaN or infinite samples dropped (not shown, not measured)");
+              " vtkMarchingCubes triangles in cells with NaN or infinite samples, or with points "
+              "its single precision cannot hold, dropped (not shown, not measured)");
         }
         if (!o.Distance.empty() && panel.MC->GetNumberOfPolys() == 0)
         {
