@@ -690,17 +690,45 @@ private:
 };
 vtkStandardNewMacro(vtkSliceListingDICOMReader);
 
+// A file name with each run of digits replaced by '#': "slice007.dcm" ->
+// "slice#.dcm", "IM12" -> "IM#".
+std::string NumberingPattern(const std::string& name)
+{
+  std::string pattern;
+  for (size_t i = 0; i < name.size(); ++i)
+  {
+    if (std::isdigit(static_cast<unsigned char>(name[i])))
+    {
+      if (pattern.empty() || pattern.back() != '#')
+      {
+        pattern += '#';
+      }
+    }
+    else
+    {
+      pattern += name[i];
+    }
+  }
+  return pattern;
+}
+
 // A file of the directory `dir` named like the series' files (the same
-// extension) that the reader left out, and that VTK's reader cannot read
-// on its own either (so not a slice of another series in the same
-// directory): "" when there is none.
+// name but for its numbers: "slice007.dcm" beside "slice006.dcm", not a
+// README, a DICOMDIR, a report or a hidden "._slice001.dcm" that a copy
+// from a Mac leaves) that the reader left out, and that VTK's reader
+// cannot read on its own either (so not a slice of another series
+// numbered alike): "" when there is none.
 std::string UnreadableSlice(const std::string& dir, const std::vector<std::string>& taken)
 {
-  std::vector<std::string> extensions;
+  std::vector<std::string> patterns;
   for (const std::string& name : taken)
   {
-    extensions.push_back(Extension(name));
+    patterns.push_back(NumberingPattern(name));
   }
+  std::sort(patterns.begin(), patterns.end());
+  patterns.erase(std::unique(patterns.begin(), patterns.end()), patterns.end());
+  std::vector<std::string> sorted = taken;
+  std::sort(sorted.begin(), sorted.end());
   DIR* d = opendir(dir.c_str());
   if (!d)
   {
@@ -710,9 +738,9 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
   while (dirent* entry = readdir(d))
   {
     const std::string name = entry->d_name;
-    if (name == "." || name == ".." ||
-      std::find(taken.begin(), taken.end(), name) != taken.end() ||
-      std::find(extensions.begin(), extensions.end(), Extension(name)) == extensions.end())
+    if (name.empty() || name[0] == '.' ||
+      std::binary_search(sorted.begin(), sorted.end(), name) ||
+      !std::binary_search(patterns.begin(), patterns.end(), NumberingPattern(name)))
     {
       continue;
     }

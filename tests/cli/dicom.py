@@ -26,9 +26,11 @@ def us(v):
     return struct.pack("<H", v)
 
 
-def write_series(d, vol, spacing, series="1.2.826.0.1.3680043.9.7777.1", prefix="slice"):
-    """Writes vol (int16, z-y-x order) as d/slice001.dcm, ... (`prefix`
-    instead of "slice"), series instance UID `series`; spacing is (x, y, z)."""
+def write_series(d, vol, spacing, series="1.2.826.0.1.3680043.9.7777.1", prefix="slice",
+                 suffix=".dcm"):
+    """Writes vol (int16, z-y-x order) as d/slice001.dcm, ... (`prefix` and
+    `suffix` instead of "slice" and ".dcm"), series instance UID `series`;
+    spacing is (x, y, z)."""
     nz, ny, nx = vol.shape
     os.makedirs(d, exist_ok=True)
     for k in range(nz):
@@ -50,5 +52,5 @@ def write_series(d, vol, spacing, series="1.2.826.0.1.3680043.9.7777.1", prefix=
             elem(0x28, 0x102, "US", us(15)), elem(0x28, 0x103, "US", us(1)),
             elem(0x7FE0, 0x10, "OW", vol[k].astype("<i2").tobytes()),
         ])
-        with open(os.path.join(d, f"{prefix}{k + 1:03d}.dcm"), "wb") as f:
+        with open(os.path.join(d, f"{prefix}{k + 1:03d}{suffix}"), "wb") as f:
             f.write(b"\0" * 128 + b"DICM" + meta + ds)

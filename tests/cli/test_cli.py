@@ -327,7 +327,8 @@ def dicom_slice_that_cannot_be_read_is_refused():
     series was read as 24x20x17, exit status 0 (the slices around the gap
     closed up). Such a series is refused, naming the file; a second, valid
     series in the same directory is still not an error (the reader takes
-    one series, as before)."""
+    one series, as before), nor are files named otherwise than the slices
+    (a README, a DICOMDIR, a report) or hidden ones."""
     from dicom import write_series
     d = fresh_dir("dicom-bad-slice")
     _, spacing, _, v = blob_volume()
@@ -346,11 +347,28 @@ def dicom_slice_that_cannot_be_read_is_refused():
             expect_error([series, "-o", out], "slice007.dcm", outputs=[out], status=1)
         except Failure as e:
             raise Failure(f"{label}: {e}")
+    # Slice files without an extension: the same.
+    bare = os.path.join(d, "bare")
+    write_series(bare, samples, spacing, prefix="IM", suffix="")
+    with open(os.path.join(bare, "IM007"), "wb") as f:
+        f.write(b"")
+    expect_error([bare, "-o", out], "IM007", outputs=[out], status=1)
+    # Not errors: a second, valid series; files that are not slices of the
+    # series (named otherwise, or hidden, as a copy from a Mac leaves them).
     both = os.path.join(d, "two-series")
     write_series(both, samples, spacing)
     write_series(both, samples[:5], spacing, series="1.2.826.0.1.3680043.9.7777.2",
                  prefix="other")
+    for name in ("README", "DICOMDIR", "report.dcm", "._slice001.dcm", "notes.txt"):
+        with open(os.path.join(both, name), "wb") as f:
+            f.write(b"not a slice\n")
     ok(both, "-q", "-o", os.path.join(d, "both.vtp"))
+    plain = os.path.join(d, "bare-readme")
+    write_series(plain, samples, spacing, prefix="IM", suffix="")
+    for name in ("README", "DICOMDIR", "._IM001"):
+        with open(os.path.join(plain, name), "wb") as f:
+            f.write(b"not a slice\n")
+    ok(plain, "-q", "-o", os.path.join(d, "bare.vtp"))
 
 
 @check
