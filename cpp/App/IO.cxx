@@ -28,6 +28,7 @@
 #include "vtkSTLWriter.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStructuredPointsReader.h"
+#include "vtkXMLDataElement.h"
 #include "vtkXMLImageDataReader.h"
 #include "vtkXMLPolyDataWriter.h"
 
@@ -37,6 +38,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <iostream>
 #include <limits>
@@ -574,6 +576,7 @@ void CheckAppendedRawData(const std::string& path)
 // VTK's XML image data reader, which allocates the whole extent and fills
 // what the file's pieces hold: samples no piece holds are left as they
 // were allocated (zero or garbage), without a word. It tells which are.
+// It also refuses String point scalars and does not read String arrays.
 // (Named vtk* so that CleanMessage strips its "name (0x...): " prefix.)
 class vtkPieceCheckingImageDataReader : public vtkXMLImageDataReader
 {
@@ -652,7 +655,76 @@ protected:
   vtkPieceCheckingImageDataReader() = default;
   ~vtkPieceCheckingImageDataReader() override = default;
 
+  // A piece whose point data names a String array its Scalars is refused
+  // with the header: VTK cannot make it the scalars, and the tool would
+  // contour another array of the file instead.
+  using vtkXMLImageDataReader::ReadPiece;
+  int ReadPiece(vtkXMLDataElement* ePiece) override
+  {
+    if (!this->Superclass::ReadPiece(ePiece))
+    {
+      return 0;
+    }
+    vtkXMLDataElement* pointData = this->PointDataElements[this->Piece];
+    const char* scalars = pointData ? pointData->GetAttribute("Scalars") : nullptr;
+    for (int i = 0; scalars && i < pointData->GetNumberOfNestedElements(); ++i)
+    {
+      vtkXMLDataElement* array = pointData->GetNestedElement(i);
+      const char* name = array->GetAttribute("Name");
+      const char* type = array->GetAttribute("type");
+      if (name && type && std::strcmp(name, scalars) == 0 && std::strcmp(type, "String") == 0)
+      {
+        vtkErrorMacro("its point scalars '" << scalars << "' are of type String, not numbers");
+        return 0;
+      }
+    }
+    return 1;
+  }
+
+  // String arrays are not read: the tool contours numbers only, and VTK
+  // 9.1's reader crashed (a null pointer) reporting a String array whose
+  // values it could not parse.
+  int ReadArrayForPoints(vtkXMLDataElement* da, vtkAbstractArray* array) override
+  {
+    if (!vtkDataArray::SafeDownCast(array))
+    {
+      return 1;
+    }
+    this->PointArray = da;
+    const int read = this->Superclass::ReadArrayForPoints(da, array);
+    this->PointArray = nullptr;
+    return read;
+  }
+  int ReadArrayForCells(vtkXMLDataElement* da, vtkAbstractArray* array) override
+  {
+    return !vtkDataArray::SafeDownCast(array) || this->Superclass::ReadArrayForCells(da, array);
+  }
+
+  // VTK says only "Error reading extent ..." of a point array's ASCII
+  // data with too few values or a word among them: this error, first,
+  // says which.
+  int ReadArrayValues(vtkXMLDataElement* da, vtkIdType arrayIndex, vtkAbstractArray* array,
+    vtkIdType startIndex, vtkIdType numValues, FieldType type = OTHER) override
+  {
+    if (this->Superclass::ReadArrayValues(da, arrayIndex, array, startIndex, numValues, type))
+    {
+      return 1;
+    }
+    const char* format = da->GetAttribute("format");
+    if (da == this->PointArray && format && std::strcmp(format, "ascii") == 0 &&
+      !this->GetAbortExecute())
+    {
+      const char* name = da->GetAttribute("Name");
+      const char* word = da->GetAttribute("type");
+      vtkErrorMacro("the ASCII data of its array '"
+        << (name ? name : "") << "' holds fewer values than the array needs, or one that is "
+        << "not a " << (word ? word : array->GetDataTypeAsString()) << " number");
+    }
+    return 0;
+  }
+
 private:
+  vtkXMLDataElement* PointArray = nullptr; // the point array being read
   vtkPieceCheckingImageDataReader(const vtkPieceCheckingImageDataReader&) = delete;
   void operator=(const vtkPieceCheckingImageDataReader&) = delete;
 };
@@ -975,6 +1047,14 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
     }
   }
   vtkDataArray* scalars = pd->GetScalars();
+  if (!scalars && pd->GetNumberOfArrays() > 0)
+  {
+    // Only arrays of another kind (String): nothing the tool can contour.
+    vtkAbstractArray* first = pd->GetAbstractArray(0);
+    Unreadable(path, std::string("its point data holds no numbers (its array '") +
+        (first->GetName() ? first->GetName() : "") + "' is of type " +
+        first->GetDataTypeAsString() + ")");
+  }
   if (!scalars || scalars->GetNumberOfTuples() != image->GetNumberOfPoints())
   {
     Unreadable(path, "the volume has no point scalars");

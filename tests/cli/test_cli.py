@@ -19,6 +19,7 @@ import traceback
 
 import numpy as np
 from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+from vtkmodules.vtkCommonCore import vtkStringArray
 from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
 from vtkmodules.vtkIOImage import vtkMetaImageWriter, vtkNIFTIImageWriter, vtkPNGReader
@@ -1369,6 +1370,88 @@ def vti_geometry_that_is_not_finite_is_refused():
             expect_error([bad, "-v", "150", "-o", out], attr, outputs=[out], status=1)
         except Failure as e:
             raise Failure(f"{attr}={value!r}: {e}")
+
+
+@check
+def vti_arrays_that_are_not_numbers_are_refused():
+    """VTK's XML reader crashed (segmentation fault) on a String array whose
+    values it could not parse (words, or numbers that do not make one
+    string per sample), scalars or not; it could not make a String array
+    named as the point scalars the scalars, and the tool contoured another
+    array of the file instead (exit status 0). A .vti whose point scalars
+    are Strings, or whose point data holds no numbers, is refused, and so
+    is ASCII data with a word among the numbers, saying so; String arrays
+    beside numeric scalars are left unread, and the file reads."""
+    d = fresh_dir("vti-not-numbers")
+    good = os.path.join(d, "good.vti")
+    text = write_wavelet_vti(good, (0, 7, 0, 6, 0, 5))
+    m = re.search(r'(<DataArray type="Float32" Name="RTData"[^>]*>)(.*?)(</DataArray>)', text, re.S)
+    expect(m, "no RTData array in the written file")
+    tag, values, end = m.groups()
+    numbers = values.split()
+    words = " ".join(["abc"] * len(numbers))
+    as_string = tag.replace("Float32", "String")
+    # The scalars, then a String array "s" holding `body`.
+    beside = lambda body: m.group(0) + as_string.replace('"RTData"', '"s"') + body + end
+    cases = {
+        "string-words": (as_string + words + end, "String"),
+        "string-numbers": (as_string + values + end, "String"),
+        "float-word": (tag + " ".join(numbers[:5] + ["abc"] + numbers[6:]) + end, "Float32"),
+        "float-few": (tag + " ".join(numbers[:len(numbers) // 2]) + end, "Float32"),
+        # The scalars "RTData" are (valid) Strings, the numbers are in "f".
+        "string-scalars-beside-numbers": (tag.replace('"RTData"', '"f"') + values + end
+                                          + as_string + " 97 0" * len(numbers) + end, "String"),
+    }
+    out = os.path.join(d, "o.vtp")
+    for name, (array, fragment) in cases.items():
+        path = os.path.join(d, name + ".vti")
+        with open(path, "w") as f:
+            f.write(text.replace(m.group(0), array, 1))
+        try:
+            line = expect_error([path, "-v", "150", "-o", out], name + ".vti", outputs=[out],
+                                status=1)
+            expect(fragment in line, f"{fragment!r} not in {line!r}")
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+    # The same in binary and appended encodings, as VTK writes them.
+    image = blob_image()
+    names = vtkStringArray()
+    names.SetName("s")
+    names.SetNumberOfValues(image.GetNumberOfPoints())
+    for i in range(image.GetNumberOfPoints()):
+        names.SetValue(i, f"sample {i}")
+    image.GetPointData().AddArray(names)
+    for mode in ("binary", "appended"):
+        path = os.path.join(d, f"string-scalars-{mode}.vti")
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(image)
+        if mode == "binary":
+            w.SetDataModeToBinary()
+        else:
+            w.SetDataModeToAppended()
+        w.Write()
+        ok(path, "-v", "50", "-q")  # the scalars "density" are numbers
+        with open(path, "rb") as f:
+            data = f.read()
+        expect(b'<PointData Scalars="density">' in data, f"{mode}: no PointData Scalars")
+        with open(path, "wb") as f:
+            f.write(data.replace(b'<PointData Scalars="density">', b'<PointData Scalars="s">', 1))
+        expect_error([path, "-v", "50", "-o", out], "String", outputs=[out], status=1)
+    # Strings only, not named as the scalars: no numbers to contour.
+    only = os.path.join(d, "strings-only.vti")
+    with open(only, "w") as f:
+        f.write(text.replace(m.group(0), as_string + words + end, 1)
+                .replace('<PointData Scalars="RTData">', "<PointData>"))
+    expect_error([only, "-v", "150", "-o", out], "no numbers", outputs=[out], status=1)
+    # A String array beside the scalars, unparsable or not: the file reads.
+    expected = table_value(ok(good, "-v", "150", "-o", out).stdout, "output triangles")
+    for name, body in (("beside-words", words), ("beside-bytes", " 97 0" * len(numbers))):
+        path = os.path.join(d, name + ".vti")
+        with open(path, "w") as f:
+            f.write(text.replace(m.group(0), beside(body), 1))
+        r = ok(path, "-v", "150", "-o", out)
+        expect(table_value(r.stdout, "output triangles") == expected, f"{name}:\n{r.stdout}")
 
 
 @check
