@@ -5,6 +5,9 @@
 
 #include "Common.h"
 
+#include "DICOMAppHelper.h"
+#include "DICOMCallback.h"
+#include "DICOMParser.h"
 #include "vtkAlgorithm.h"
 #include "vtkCellArray.h"
 #include "vtkDataArray.h"
@@ -784,6 +787,79 @@ std::string NumberingPattern(const std::string& name)
   return pattern;
 }
 
+// Takes the declared length of a DICOM file's pixel data (the last such
+// element) and whether the file held all of it: VTK's parser reads the
+// value without looking at how much it got, and a read past the end of the
+// file leaves its stream failed (Tell() -1).
+struct PixelDataElement
+{
+  bool Found = false;
+  bool Whole = true;
+  quadbyte Length = 0;
+  void Take(DICOMParser* parser, doublebyte, doublebyte, DICOMParser::VRTypes, unsigned char*,
+    quadbyte length)
+  {
+    this->Found = true;
+    this->Length = length;
+    this->Whole = parser->GetDICOMFile()->Tell() >= 0;
+  }
+};
+
+// What is wrong with the pixel data of a DICOM slice that VTK's reader
+// took into the series ("" if nothing): the reader copies what it needs
+// from the pixel data element without a check, so a file cut short within
+// it, or declaring fewer bytes than its rows x columns need, was read with
+// zeros or garbage for the rest, and compressed (encapsulated) data, which
+// it does not decode, as zeros or garbage. The file is parsed by VTK's own
+// parser.
+std::string PixelDataProblem(const std::string& file)
+{
+  DICOMAppHelper header;
+  PixelDataElement pixels;
+  DICOMMemberCallback<PixelDataElement> take;
+  take.SetCallbackFunction(&pixels, &PixelDataElement::Take);
+  DICOMParser parser;
+  {
+    StderrCapture capture; // its notes on a file without the DICM prefix
+    if (!parser.OpenFile(file))
+    {
+      return "cannot be opened";
+    }
+    header.RegisterCallbacks(&parser);
+    parser.AddDICOMTagCallback(0x7FE0, 0x0010, DICOMParser::VR_OW, &take);
+    parser.ReadHeader();
+  }
+  const unsigned long long need = static_cast<unsigned long long>(header.GetWidth()) *
+    static_cast<unsigned long long>(header.GetHeight()) * header.GetNumberOfComponents() *
+    static_cast<unsigned long long>(header.GetBitsAllocated() / 8);
+  const std::string what = std::to_string(header.GetWidth()) + "x" +
+    std::to_string(header.GetHeight()) + " pixels of " +
+    std::to_string(header.GetBitsAllocated()) + " bits" +
+    (header.GetNumberOfComponents() > 1
+        ? " x " + std::to_string(header.GetNumberOfComponents()) + " samples"
+        : std::string());
+  if (!pixels.Found)
+  {
+    return "has no pixel data (is the file cut short?)";
+  }
+  if (pixels.Length == 0xFFFFFFFFu)
+  {
+    return "holds compressed pixel data (transfer syntax " + header.GetTransferSyntaxUID() +
+      "), which VTK's DICOM reader does not decode (it would read zeros or garbage)";
+  }
+  if (!pixels.Whole)
+  {
+    return "is cut short within its pixel data (" + what + ": " + std::to_string(need) +
+      " bytes)";
+  }
+  if (pixels.Length < need)
+  {
+    return "holds " + std::to_string(pixels.Length) + " bytes of pixel data, fewer than its " +
+      what + " need (" + std::to_string(need) + ")";
+  }
+  return "";
+}
+
 // A file of the directory `dir` named like the series' files (the same
 // name but for its numbers: "slice007.dcm" beside "slice006.dcm", not a
 // README, a DICOMDIR, a report or a hidden "._slice001.dcm" that a copy
@@ -968,8 +1044,19 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
   if (IsDirectory(path))
   {
     // vtkDICOMImageReader complains about slice order for series it still
-    // reads: only an empty result is a failure.
+    // reads: only an empty result is a failure. It lists the series' files
+    // with the header; their pixel data is checked before it reads them.
+    auto* dicom = vtkSliceListingDICOMReader::SafeDownCast(reader);
     TakeVTKErrors();
+    reader->UpdateInformation();
+    for (const std::string& name : dicom->TakenFiles())
+    {
+      const std::string why = PixelDataProblem(path + "/" + name);
+      if (!why.empty())
+      {
+        Unreadable(path, "its file '" + name + "' " + why);
+      }
+    }
     reader->Update();
     TakeVTKErrors();
     image = vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));
@@ -977,8 +1064,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
     {
       Unreadable(path, "no DICOM series found in the directory");
     }
-    const std::string skipped =
-      UnreadableSlice(path, vtkSliceListingDICOMReader::SafeDownCast(reader)->TakenFiles());
+    const std::string skipped = UnreadableSlice(path, dicom->TakenFiles());
     if (!skipped.empty())
     {
       Unreadable(path, "its file '" + skipped +

@@ -373,6 +373,65 @@ def dicom_slice_that_cannot_be_read_is_refused():
 
 
 @check
+def dicom_slice_cut_short_in_its_pixel_data_is_refused():
+    """VTK's DICOM reader copies a slice's pixels from its pixel data
+    element without looking at how many bytes the file held: a slice file
+    cut short within its pixel data (by a byte, by half, all of it, or the
+    whole element gone) or declaring fewer bytes than its rows x columns
+    need read as 24x20x18 with zeros or garbage in the gap, exit status 0.
+    So did compressed (RLE) slices, which it does not decode. Such series
+    are refused, naming the file; uncompressed series in implicit VR, or of
+    8-bit samples on an odd number of pixels, still read."""
+    from dicom import IMPLICIT, RLE, write_series
+    d = fresh_dir("dicom-short-pixels")
+    _, spacing, _, v = blob_volume()
+    samples = np.round(v * 10.0).astype(np.int16)
+    pixel_bytes = samples.shape[1] * samples.shape[2] * 2
+    out = os.path.join(d, "o.vtp")
+
+    def shorter(data):
+        # The same file with a pixel data length 100 bytes short.
+        at = len(data) - pixel_bytes - 4
+        expect(struct.unpack("<I", data[at:at + 4])[0] == pixel_bytes, "pixel data length")
+        return data[:at] + struct.pack("<I", pixel_bytes - 100) + data[at + 4:-100]
+
+    for label, damage, fragment in (
+            ("a byte", lambda b: b[:-1], "cut short"),
+            ("half", lambda b: b[:-pixel_bytes // 2], "cut short"),
+            ("all pixels", lambda b: b[:-pixel_bytes], "cut short"),
+            ("no element", lambda b: b[:-pixel_bytes - 12], "no pixel data"),
+            ("declared short", shorter, "fewer than")):
+        series = os.path.join(d, label.replace(" ", "-"))
+        write_series(series, samples, spacing)
+        victim = os.path.join(series, "slice007.dcm")
+        with open(victim, "rb") as f:
+            data = f.read()
+        with open(victim, "wb") as f:
+            f.write(damage(data))
+        try:
+            line = expect_error([series, "-o", out], "slice007.dcm", outputs=[out], status=1)
+            expect(fragment in line, f"{fragment!r} not in {line!r}")
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+    rle = os.path.join(d, "rle")
+    write_series(rle, samples, spacing, syntax=RLE)
+    expect_error([rle, "-o", out], "compressed", outputs=[out], status=1)
+    # Valid series: the same surface in implicit VR as in explicit VR.
+    explicit = os.path.join(d, "explicit")
+    implicit = os.path.join(d, "implicit")
+    write_series(explicit, samples, spacing)
+    write_series(implicit, samples, spacing, syntax=IMPLICIT)
+    a = ok(explicit, "-v", "400", "-o", os.path.join(d, "explicit.vtp"))
+    b = ok(implicit, "-v", "400", "-o", os.path.join(d, "implicit.vtp"))
+    expect(table_value(a.stdout, "output triangles") == table_value(b.stdout, "output triangles"),
+           f"implicit VR read differently:\n{a.stdout}\n{b.stdout}")
+    odd = os.path.join(d, "odd-8-bit")
+    write_series(odd, (samples[:, :19, :23] // 4).astype(np.uint8), spacing)
+    r = ok(odd, "-v", "100", "-o", os.path.join(d, "odd.vtp"))
+    expect("odd-8-bit: 23x19x18, unsigned char" in r.stdout, f"table header:\n{r.stdout}")
+
+
+@check
 def explicit_values_and_filter_options():
     d = fresh_dir("options")
     paths = write_inputs(d)
