@@ -346,8 +346,12 @@ const PROGRESS_EVERY: Duration = Duration::from_millis(20);
 /// vtkFlyingEdges3D: the EPI scan 128x96x24 took 2.2x its time in one
 /// slab, 1.6-1.7x in six; the wavy sphere at 64^3 2.1x in one, 1.5x in
 /// six; the 48x48x20 tube and the 40^3 atoms, a few thousand triangles,
-/// lost 0.05-0.2 ms to a helper thread in two or more.)
-const MIN_CELLS_PER_SLAB: u64 = 1 << 15;
+/// lost 0.05-0.2 ms to a helper thread in two or more. Fortieth session,
+/// helpers that watch for work before parking, on its own threads, 2
+/// asked, medians of 600 calls: the EPI scan 0.58 ms in 4 slabs against
+/// 0.63-0.65 in 6 and 0.82-0.84 in one; the 64^3 sphere 0.32 in 2
+/// against 0.35-0.37 in 6 and 0.50 in one.)
+const MIN_CELLS_PER_SLAB: u64 = 1 << 16;
 
 /// [`MIN_CELLS_PER_SLAB`] on a host's executor, where no thread starts.
 /// It was half that while a cell cost more (Marschner-Lobb 41^3 on TBB
@@ -377,14 +381,16 @@ const MIN_LAYERS_PER_SLAB: usize = 3;
 
 /// With refinement off on the library's own threads, the fewest cells for
 /// which helper threads start: below, the calling thread contours the
-/// volume alone in one slab. Starting and joining a helper costs about
-/// as much as contouring a few hundred thousand cells on these shared
-/// virtual machines (twenty-fourth session, 2 threads asked, builds with
-/// and without this bound alternated, medians of 400 calls: the 64^3
-/// wavy sphere 0.55-1.04 ms alone against 1.11-1.92 with a helper, the
-/// 128x96x24 EPI scan 1.61-1.71 against 1.80-2.73; at 128^3, 2 million
-/// cells, a helper still pays: 4.1-4.5 ms against 4.5-4.8 alone).
-const MIN_CELLS_FOR_HELPERS: u64 = 1 << 19;
+/// volume alone in one slab; from it on, each worker gets a slab at
+/// least. It was 2^19 while starting and waking a helper cost about as
+/// much as contouring a few hundred thousand cells on these shared
+/// virtual machines (twenty-fourth session: the 64^3 wavy sphere 0.55-1.04
+/// ms alone against 1.11-1.92 with a helper). The helpers now stay
+/// between calls and watch for work a little before parking
+/// ([`crate::helpers`]), and a slab's assembly costs less: 2
+/// threads asked, medians of 600 calls, Marschner-Lobb 41^3 (64 000
+/// cells) took 0.57-0.58 ms in two slabs against 0.83 alone.
+const MIN_CELLS_FOR_HELPERS: u64 = 1 << 15;
 
 /// With refinement off and one thread, the most cells an extraction runs
 /// on the calling thread without a pool (a few milliseconds of work: no
@@ -468,6 +474,13 @@ fn run<T: Scalar>(
         how.min_slab_cells,
         how.min_slab_layers,
     );
+    // Helpers started with refinement off each get a slab at least (the
+    // bound on cells a slab would leave a small volume in one).
+    let nslabs = if how.executor.is_none() && !refine && threads > 1 {
+        nslabs.max(threads.min(nz))
+    } else {
+        nslabs
+    };
     let threads = threads.min(nslabs);
     let mut run_on = |exec: Exec<'_>| {
         let r = &mut reporter;
@@ -2025,9 +2038,9 @@ mod tests {
     #[test]
     fn slab_counts() {
         // Refinement off: no slab under the minimum, at least one, and
-        // whole shares for the workers (9 slabs' worth on 2: 8).
+        // whole shares for the workers (5 slabs' worth on 2: 4).
         assert_eq!(slab_count(24, 60_000, 2, false, MIN_CELLS_PER_SLAB, 1), 1);
-        assert_eq!(slab_count(24, 294_912, 2, false, MIN_CELLS_PER_SLAB, 1), 8);
+        assert_eq!(slab_count(24, 340_000, 2, false, MIN_CELLS_PER_SLAB, 1), 4);
         assert_eq!(
             slab_count(255, 255u64.pow(3), 2, false, MIN_CELLS_PER_SLAB, 1),
             16
