@@ -19,6 +19,9 @@
 //! its own (the crew records its process id), or held, and starts helpers
 //! for each call. (A child forked from a progress callback must not
 //! return into that extraction: the helpers it waits for are not there.)
+//! A lock the standard library takes as a `std::thread` starts or ends is
+//! out of reach here: the helpers' threads are started without it
+//! ([`crate::os_thread`]).
 
 use std::any::Any;
 use std::cell::RefCell;

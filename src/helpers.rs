@@ -20,10 +20,10 @@
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, TryLockError};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 use crate::executor::Executor;
+use crate::os_thread::OsThread;
 
 /// How long a crew helper waits for work before it returns.
 const IDLE: Duration = Duration::from_secs(1);
@@ -86,7 +86,7 @@ struct Crew {
     /// watches it).
     busy: AtomicUsize,
     /// The helpers' threads, joined by [`Crew::stop`].
-    handles: Mutex<Vec<JoinHandle<()>>>,
+    handles: Mutex<Vec<OsThread>>,
 }
 
 impl Crew {
@@ -190,9 +190,9 @@ impl Crew {
             let started = if spawn_fails() {
                 Err(std::io::Error::other("no threads (test)"))
             } else {
-                std::thread::Builder::new()
-                    .name("precisemc-helper".into())
-                    .spawn(move || crew.serve(seen))
+                // Not `std::thread`: a child forked while it started or
+                // ended a thread could start none (see `os_thread`).
+                OsThread::spawn("precisemc-help", move || crew.serve(seen))
             };
             match started {
                 Ok(h) => {
@@ -219,7 +219,7 @@ impl Crew {
         self.wake.notify_all();
         let handles = std::mem::take(&mut *self.handles.lock().unwrap_or_else(|e| e.into_inner()));
         for h in handles {
-            let _ = h.join();
+            h.join();
         }
     }
 }

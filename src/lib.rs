@@ -67,6 +67,7 @@ mod memory;
 mod near_bound;
 mod nearest;
 mod normals;
+mod os_thread;
 mod par;
 mod recycle;
 mod refine;
