@@ -30,11 +30,14 @@ const IDLE: Duration = Duration::from_secs(1);
 
 /// How long a helper with nothing to do watches for the next batch before
 /// it parks, and the calling thread for the helpers to finish before it
-/// waits on them: waking a parked thread takes 0.01 ms at the median on
-/// the shared virtual machines and far longer now and then, as long as a
-/// small volume's step (a 2-thread call of the EPI scan of the benchmark
-/// took 0.58 ms with it, 0.61 without; the 64^3 wavy sphere 0.32 and 0.38).
-const SPIN: Duration = Duration::from_micros(100);
+/// waits on them (as OpenMP's and TBB's workers spin a while): waking a
+/// parked thread takes 0.01 ms at the median on the shared virtual
+/// machines and far longer now and then, as long as a small volume's step,
+/// and calls through VTK come a little more than 0.1 ms apart. Through
+/// VTK from Python, 2 threads, medians of 100 calls: the 48x48x20 tube
+/// 0.122 ms with 0.3 ms, 0.156 with 0.1, 0.153 alone on the calling
+/// thread; Marschner-Lobb 41^3 0.67, 0.66 and 0.91.
+const SPIN: Duration = Duration::from_micros(300);
 
 /// A batch's task with its lifetime erased; see [`Lease::run`] for why
 /// the helpers never call it after the batch returned.
