@@ -321,6 +321,19 @@ def input_dicom_series():
     expect(refined > 0 and read_surface(out).GetNumberOfPolys() == refined, "read back")
 
 
+def damaged_series(series, samples, spacing, damage):
+    """Writes a DICOM series into `series` whose slice007.dcm is then
+    replaced by `damage` of its bytes; returns `series`."""
+    from dicom import write_series
+    write_series(series, samples, spacing)
+    victim = os.path.join(series, "slice007.dcm")
+    with open(victim, "rb") as f:
+        data = f.read()
+    with open(victim, "wb") as f:
+        f.write(damage(data))
+    return series
+
+
 @check
 def dicom_slice_that_cannot_be_read_is_refused():
     """VTK's DICOM reader leaves out a file of the series it cannot parse:
@@ -337,13 +350,8 @@ def dicom_slice_that_cannot_be_read_is_refused():
     out = os.path.join(d, "o.vtp")
     for label, damage in (("empty", lambda b: b""), ("cut short", lambda b: b[:300]),
                           ("not DICOM", lambda b: b"hello\n")):
-        series = os.path.join(d, label.replace(" ", "-"))
-        write_series(series, samples, spacing)
-        victim = os.path.join(series, "slice007.dcm")
-        with open(victim, "rb") as f:
-            data = f.read()
-        with open(victim, "wb") as f:
-            f.write(damage(data))
+        series = damaged_series(os.path.join(d, label.replace(" ", "-")), samples, spacing,
+                                damage)
         try:
             expect_error([series, "-o", out], "slice007.dcm", outputs=[out], status=1)
         except Failure as e:
@@ -401,13 +409,8 @@ def dicom_slice_cut_short_in_its_pixel_data_is_refused():
             ("all pixels", lambda b: b[:-pixel_bytes], "cut short"),
             ("no element", lambda b: b[:-pixel_bytes - 12], "no pixel data"),
             ("declared short", shorter, "fewer than")):
-        series = os.path.join(d, label.replace(" ", "-"))
-        write_series(series, samples, spacing)
-        victim = os.path.join(series, "slice007.dcm")
-        with open(victim, "rb") as f:
-            data = f.read()
-        with open(victim, "wb") as f:
-            f.write(damage(data))
+        series = damaged_series(os.path.join(d, label.replace(" ", "-")), samples, spacing,
+                                damage)
         try:
             line = expect_error([series, "-o", out], "slice007.dcm", outputs=[out], status=1)
             expect(fragment in line, f"{fragment!r} not in {line!r}")
