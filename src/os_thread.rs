@@ -1,5 +1,6 @@
-//! The helper threads' own threads, started with `pthread_create` itself
-//! on Unix rather than through `std::thread`.
+//! The library's threads (the helpers, and the pool of the distance
+//! measure), started with `pthread_create` itself on Unix rather than
+//! through `std::thread`.
 //!
 //! Why: `std::thread` records each thread it starts, and forgets it when
 //! the thread ends, under a lock of the standard library's own (for its
@@ -9,7 +10,7 @@
 //! `tests/fork.rs`, where threads extract (starting and ending helpers)
 //! while the test forks, about one child in 2 000 hung in starting its
 //! helpers. A thread started here takes no lock at its start or end, so a
-//! child can always start its helpers. Elsewhere, `std::thread`.
+//! child can always start its own. Elsewhere, `std::thread`.
 
 use std::io;
 

@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use crate::executor::Executor;
 use crate::helpers::Lease;
+use crate::os_thread::OsThread;
 use crate::Error;
 
 /// The executor of an extraction's parallel steps.
@@ -103,10 +104,28 @@ pub(crate) fn with_scoped_pool<R>(
     if POOL_FAILS.with(|f| f.get()) {
         return None;
     }
-    rayon::ThreadPoolBuilder::new()
+    // The pool's threads are started with `pthread_create` (see
+    // `os_thread`: a child forked while one started could start none) and
+    // joined once the pool is dropped, whether it was built or not, and
+    // if `f` panics (the pool, declared after, is dropped first).
+    struct JoinAll(Vec<OsThread>);
+    impl Drop for JoinAll {
+        fn drop(&mut self) {
+            for t in self.0.drain(..) {
+                t.join();
+            }
+        }
+    }
+    let mut started = JoinAll(Vec::new());
+    let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
-        .build_scoped(|thread| thread.run(), f)
-        .ok()
+        .spawn_handler(|thread| {
+            let t = OsThread::spawn("precisemc-pool", move || thread.run())?;
+            started.0.push(t);
+            Ok(())
+        })
+        .build();
+    pool.ok().map(|pool| f(&pool))
 }
 
 #[cfg(test)]
