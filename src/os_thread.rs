@@ -62,6 +62,21 @@ mod imp {
         id: libc::pthread_t,
         done: Arc<AtomicBool>,
         joined: bool,
+        /// The process that started the thread: in a child made by `fork`
+        /// the thread does not exist and its id means nothing (glibc gives
+        /// its stack and descriptor to the child's next threads), so it is
+        /// neither joined nor detached there.
+        pid: libc::pid_t,
+    }
+
+    // SAFETY: a `pthread_t` is only an id (a pointer on musl), used by
+    // whichever thread joins or drops the handle.
+    unsafe impl Send for Inner {}
+    unsafe impl Sync for Inner {}
+
+    fn ours(pid: libc::pid_t) -> bool {
+        // SAFETY: no preconditions.
+        unsafe { libc::getpid() == pid }
     }
 
     extern "C" fn start(arg: *mut c_void) -> *mut c_void {
@@ -82,7 +97,7 @@ mod imp {
             flag.store(true, Ordering::Release);
         });
         let arg = Box::into_raw(Box::new(main));
-        let mut id: libc::pthread_t = 0;
+        let mut id = std::mem::MaybeUninit::<libc::pthread_t>::uninit();
         // SAFETY: plain calls on a local attribute object, initialised
         // before use and destroyed after; `start` takes over `arg` when
         // the thread starts, and it is freed here when it does not.
@@ -95,7 +110,7 @@ mod imp {
             }
             let mut attr = attr.assume_init();
             libc::pthread_attr_setstacksize(&mut attr, STACK);
-            let r = libc::pthread_create(&mut id, &attr, start, arg.cast());
+            let r = libc::pthread_create(id.as_mut_ptr(), &attr, start, arg.cast());
             libc::pthread_attr_destroy(&mut attr);
             if r != 0 {
                 drop(Box::from_raw(arg));
@@ -106,15 +121,18 @@ mod imp {
                 let mut buf = [0u8; 16];
                 let n = name.len().min(15);
                 buf[..n].copy_from_slice(&name.as_bytes()[..n]);
-                libc::pthread_setname_np(id, buf.as_ptr().cast());
+                libc::pthread_setname_np(id.assume_init(), buf.as_ptr().cast());
             }
         }
         #[cfg(not(target_os = "linux"))]
         let _ = name;
         Ok(Inner {
-            id,
+            // SAFETY: `pthread_create` succeeded and set it.
+            id: unsafe { id.assume_init() },
             done,
             joined: false,
+            // SAFETY: no preconditions.
+            pid: unsafe { libc::getpid() },
         })
     }
 
@@ -125,6 +143,9 @@ mod imp {
 
         pub(super) fn join(mut self) {
             self.joined = true;
+            if !ours(self.pid) {
+                return;
+            }
             // SAFETY: a thread of ours, neither joined nor detached yet.
             unsafe {
                 libc::pthread_join(self.id, std::ptr::null_mut());
@@ -134,7 +155,7 @@ mod imp {
 
     impl Drop for Inner {
         fn drop(&mut self) {
-            if !self.joined {
+            if !self.joined && ours(self.pid) {
                 // SAFETY: as in `join`; the thread then ends on its own.
                 unsafe {
                     libc::pthread_detach(self.id);
