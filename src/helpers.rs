@@ -183,8 +183,18 @@ impl Crew {
     /// marks the crew as used by a call with that many seats.
     fn lease(self: &Arc<Self>, helpers: usize) {
         let mut handles = self.handles.lock().unwrap_or_else(|e| e.into_inner());
-        // Helpers that returned while idle.
-        handles.retain(|h| !h.is_finished());
+        // Helpers that returned while idle, joined rather than detached:
+        // past `serve` such a thread still runs this library's code for a
+        // few instructions, and nothing else would wait for it before the
+        // library is unloaded (`stop_crew` joins only the handles here).
+        let mut i = 0;
+        while i < handles.len() {
+            if handles[i].is_finished() {
+                handles.swap_remove(i).join();
+            } else {
+                i += 1;
+            }
+        }
         let mut s = self.lock();
         s.leased = true;
         s.seats = helpers;
