@@ -381,8 +381,8 @@ const MIN_LAYERS_PER_SLAB: usize = 3;
 
 /// With refinement off on the library's own threads, the fewest cells for
 /// which helper threads start: below, the calling thread contours the
-/// volume alone in one slab; from it on, each worker gets a slab at
-/// least. It was 2^19 while starting and waking a helper cost about as
+/// volume alone in one slab; from it on, each worker gets a slab (of at
+/// least [`MIN_CELLS_PER_WORKER`] cells). It was 2^19 while starting and waking a helper cost about as
 /// much as contouring a few hundred thousand cells on these shared
 /// virtual machines (twenty-fourth session: the 64^3 wavy sphere 0.55-1.04
 /// ms alone against 1.11-1.92 with a helper). The helpers now stay
@@ -391,6 +391,12 @@ const MIN_LAYERS_PER_SLAB: usize = 3;
 /// threads asked, medians of 600 calls, Marschner-Lobb 41^3 (64 000
 /// cells) took 0.57-0.58 ms in two slabs against 0.83 alone.
 const MIN_CELLS_FOR_HELPERS: u64 = 1 << 15;
+
+/// With refinement off on the library's own threads, the fewest cells of
+/// a slab given to a worker so that each has one (see
+/// [`MIN_CELLS_FOR_HELPERS`]): helpers beyond that many would wake, and
+/// watch for work, for next to nothing.
+const MIN_CELLS_PER_WORKER: u64 = 1 << 14;
 
 /// With refinement off and one thread, the most cells an extraction runs
 /// on the calling thread without a pool (a few milliseconds of work: no
@@ -474,10 +480,12 @@ fn run<T: Scalar>(
         how.min_slab_cells,
         how.min_slab_layers,
     );
-    // Helpers started with refinement off each get a slab at least (the
-    // bound on cells a slab would leave a small volume in one).
+    // Helpers started with refinement off get a slab each (the bound on
+    // cells a slab would leave a small volume in one), of at least
+    // `MIN_CELLS_PER_WORKER` cells: a 40^3 volume on 16 cores takes 3.
     let nslabs = if how.executor.is_none() && !refine && threads > 1 {
-        nslabs.max(threads.min(nz))
+        let workers = volume.cell_count() / MIN_CELLS_PER_WORKER;
+        nslabs.max(threads.min(nz).min(workers.min(usize::MAX as u64) as usize))
     } else {
         nslabs
     };
