@@ -100,11 +100,13 @@ pub struct Options {
     /// The most worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
     /// The calling thread works beside `threads - 1` helper threads, which
-    /// are kept between calls (parked; each returns after 1 s without
-    /// work, and [`crate::release_retained_memory`] stops them at once).
-    /// Plain Marching Cubes (no refinement) of a volume under 524 288
-    /// cells runs on the calling thread alone: handing work to a helper
-    /// and joining the slabs costs more than it saves there. Where
+    /// are kept between calls (watching for work for 0.3 ms, then parked;
+    /// each returns after 1 s without work, and
+    /// [`crate::release_retained_memory`] stops them at once). Plain
+    /// Marching Cubes (no refinement) of a volume under 32 768 cells runs
+    /// on the calling thread alone, and a larger one gives each worker at
+    /// least 16 384 cells: handing less work to a helper and joining the
+    /// slabs costs more than it saves. Where
     /// threads cannot be started (a limit on threads), the call runs on
     /// those that did start, the calling thread at least.
     pub threads: usize,
