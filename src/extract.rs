@@ -382,9 +382,9 @@ const MIN_LAYERS_PER_SLAB: usize = 3;
 /// With refinement off on the library's own threads, the fewest cells for
 /// which helper threads start: below, the calling thread contours the
 /// volume alone in one slab; from it on, each worker gets a slab (of at
-/// least [`MIN_CELLS_PER_WORKER`] cells). It was 2^19 while starting and waking a helper cost about as
-/// much as contouring a few hundred thousand cells on these shared
-/// virtual machines (twenty-fourth session: the 64^3 wavy sphere 0.55-1.04
+/// least [`MIN_CELLS_PER_WORKER`] cells). It was 2^19 while starting and
+/// waking a helper cost about as much as contouring a few hundred
+/// thousand cells on these shared virtual machines (twenty-fourth session: the 64^3 wavy sphere 0.55-1.04
 /// ms alone against 1.11-1.92 with a helper). The helpers now stay
 /// between calls and watch for work a little before parking
 /// ([`crate::helpers`]), and a slab's assembly costs less: 2
@@ -406,7 +406,9 @@ const SERIAL_MAX_CELLS: u64 = 1 << 22;
 /// How many slabs (runs of cell layers along z) to cut `nz` layers of
 /// `cells` cells into for `threads` workers, with refinement off slabs of
 /// at least `min_cells` cells and (while there are more slabs than
-/// workers) `min_layers` layers. The output does not depend on it.
+/// workers) `min_layers` layers, but a slab for each worker where each can
+/// have `min_worker_cells` (`u64::MAX`: no such promise). The output does
+/// not depend on it.
 fn slab_count(
     nz: usize,
     cells: u64,
@@ -414,6 +416,7 @@ fn slab_count(
     refine: bool,
     min_cells: u64,
     min_layers: usize,
+    min_worker_cells: u64,
 ) -> usize {
     // Several slabs a thread, for balance when refinement is uneven. Plain
     // Marching Cubes on one thread needs no balance, and one slab is
@@ -435,6 +438,12 @@ fn slab_count(
         if n > threads {
             n -= n % threads;
         }
+        // Helpers started for a small volume each get a slab (the bound on
+        // cells a slab would leave it in one), unless a slab each would be
+        // too small to be worth waking them (a 40^3 volume on 16 cores
+        // takes 3).
+        let workers = (cells / min_worker_cells.max(1)).min(usize::MAX as u64) as usize;
+        n = n.max(threads.min(nz).min(workers));
     }
     // Grid-edge cache stamps are 32-bit, one per layer of a slab.
     n.max(nz.div_ceil(1 << 31)).max(1)
@@ -479,16 +488,13 @@ fn run<T: Scalar>(
         refine,
         how.min_slab_cells,
         how.min_slab_layers,
+        // (On a host's executor no helper starts: no promise.)
+        if how.executor.is_none() {
+            MIN_CELLS_PER_WORKER
+        } else {
+            u64::MAX
+        },
     );
-    // Helpers started with refinement off get a slab each (the bound on
-    // cells a slab would leave a small volume in one), of at least
-    // `MIN_CELLS_PER_WORKER` cells: a 40^3 volume on 16 cores takes 3.
-    let nslabs = if how.executor.is_none() && !refine && threads > 1 {
-        let workers = volume.cell_count() / MIN_CELLS_PER_WORKER;
-        nslabs.max(threads.min(nz).min(workers.min(usize::MAX as u64) as usize))
-    } else {
-        nslabs
-    };
     let threads = threads.min(nslabs);
     let mut run_on = |exec: Exec<'_>| {
         let r = &mut reporter;
@@ -2047,32 +2053,81 @@ mod tests {
     fn slab_counts() {
         // Refinement off: no slab under the minimum, at least one, and
         // whole shares for the workers (5 slabs' worth on 2: 4).
-        assert_eq!(slab_count(24, 60_000, 2, false, MIN_CELLS_PER_SLAB, 1), 1);
-        assert_eq!(slab_count(24, 340_000, 2, false, MIN_CELLS_PER_SLAB, 1), 4);
         assert_eq!(
-            slab_count(255, 255u64.pow(3), 2, false, MIN_CELLS_PER_SLAB, 1),
-            16
-        );
-        assert_eq!(slab_count(0, 0, 2, false, MIN_CELLS_PER_SLAB, 1), 1);
-        // Refinement on: several slabs a thread whatever the size.
-        assert_eq!(slab_count(24, 294_912, 2, true, MIN_CELLS_PER_SLAB, 1), 16);
-        // One thread: one slab without refinement, several with it.
-        assert_eq!(
-            slab_count(255, 255u64.pow(3), 1, false, MIN_CELLS_PER_SLAB, 1),
+            slab_count(24, 60_000, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
             1
         );
         assert_eq!(
-            slab_count(255, 255u64.pow(3), 1, true, MIN_CELLS_PER_SLAB, 1),
+            slab_count(24, 340_000, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
+            4
+        );
+        assert_eq!(
+            slab_count(
+                255,
+                255u64.pow(3),
+                2,
+                false,
+                MIN_CELLS_PER_SLAB,
+                1,
+                u64::MAX
+            ),
+            16
+        );
+        assert_eq!(
+            slab_count(0, 0, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
+            1
+        );
+        // Refinement on: several slabs a thread whatever the size.
+        assert_eq!(
+            slab_count(24, 294_912, 2, true, MIN_CELLS_PER_SLAB, 1, u64::MAX),
+            16
+        );
+        // One thread: one slab without refinement, several with it.
+        assert_eq!(
+            slab_count(
+                255,
+                255u64.pow(3),
+                1,
+                false,
+                MIN_CELLS_PER_SLAB,
+                1,
+                u64::MAX
+            ),
+            1
+        );
+        assert_eq!(
+            slab_count(255, 255u64.pow(3), 1, true, MIN_CELLS_PER_SLAB, 1, u64::MAX),
             8
         );
         // A few layers a slab while there are more slabs than workers:
         // 23 layers on 2 workers, 7 slabs, rounded down to 6; 12 layers on
         // 8 workers, one each.
-        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 3), 6);
-        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 1), 16);
-        assert_eq!(slab_count(12, 1 << 30, 8, false, 1 << 14, 3), 8);
+        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 3, u64::MAX), 6);
+        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 1, u64::MAX), 16);
+        assert_eq!(slab_count(12, 1 << 30, 8, false, 1 << 14, 3, u64::MAX), 8);
+        // A slab each for helpers where each gets enough cells: Marschner-
+        // Lobb 41^3 on 2 and 16 workers, the 64^3 sphere on 16 (else 1).
+        assert_eq!(
+            slab_count(40, 64_000, 2, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
+            2
+        );
+        assert_eq!(
+            slab_count(40, 64_000, 16, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
+            3
+        );
+        assert_eq!(
+            slab_count(63, 250_047, 16, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
+            15
+        );
+        assert_eq!(
+            slab_count(40, 64_000, 2, false, MIN_CELLS_PER_SLAB, 3, u64::MAX),
+            1
+        );
         // Slabs stay under 2^31 layers (32-bit cache stamps).
-        assert_eq!(slab_count(5 << 31, 5 << 31, 1, false, u64::MAX, 1), 5);
+        assert_eq!(
+            slab_count(5 << 31, 5 << 31, 1, false, u64::MAX, 1, u64::MAX),
+            5
+        );
     }
 
     /// The word-at-a-time scan finds the same cells as looking at each:
