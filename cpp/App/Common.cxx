@@ -155,13 +155,6 @@ private:
 };
 vtkStandardNewMacro(CaptureOutputWindow);
 
-// The last component of a path: "a/b.vtp" -> "b.vtp", "b.vtp" -> "b.vtp".
-std::string FileNameOf(const std::string& path)
-{
-  size_t slash = path.find_last_of('/');
-  return slash == std::string::npos ? path : path.substr(slash + 1);
-}
-
 std::string DirectoryOf(const std::string& path)
 {
   size_t slash = path.find_last_of('/');
@@ -176,6 +169,12 @@ std::string DirectoryOf(const std::string& path)
   return path.substr(0, slash);
 }
 
+}
+
+std::string FileNameOf(const std::string& path)
+{
+  size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
 void CaptureVTKMessages()

@@ -51,6 +51,9 @@ private:
   int Saved = -1;
 };
 
+// The last component of a path: "a/b.vtp" -> "b.vtp", "b.vtp" -> "b.vtp".
+std::string FileNameOf(const std::string& path);
+
 // Lower-case extension of a file name, with the double extension ".nii.gz"
 // and ".tar.gz" kept whole: "a/B.NII.GZ" -> ".nii.gz", "a/b" -> "".
 std::string Extension(const std::string& path);

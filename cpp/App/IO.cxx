@@ -749,8 +749,7 @@ public:
     std::vector<std::string> names;
     for (int i = 0; i < this->GetNumberOfDICOMFileNames(); ++i)
     {
-      std::string name = this->GetDICOMFileName(i) ? this->GetDICOMFileName(i) : "";
-      names.push_back(name.substr(name.find_last_of('/') + 1));
+      names.push_back(FileNameOf(this->GetDICOMFileName(i) ? this->GetDICOMFileName(i) : ""));
     }
     return names;
   }
