@@ -1148,12 +1148,17 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.nonfinite += 1;
                     continue;
                 };
-                // Under a cap, the leaves this cell may add before the pass
-                // is over it for sure (the other slabs' count lags behind,
-                // so this never stops a pass whose output would fit).
-                // A cell that may be meshed again on sub-cells gets room
-                // for its stalled patch beyond that (it is replaced by a
-                // patch that may fit): the check after the cell decides.
+                // Under a cap, the leaves this cell may add before the
+                // pass is over it for sure (the other slabs' count lags
+                // behind): past it the cell reports at its end, where its
+                // final patch decides. The refinement of one attempt stops
+                // only past the cap itself (and, for a cell that may be
+                // meshed again on sub-cells, room for its stalled patch,
+                // which is replaced): an attempt may still be dropped for
+                // a smaller one (see the attempts below), and what is left
+                // of the cap depends on how far the other slabs have got,
+                // so stopping there made the level a cap lowers to depend
+                // on the thread count.
                 let produced_before = produced(&out, count_only);
                 let (remaining, leaf_budget) = if cap == u64::MAX {
                     (u64::MAX, u64::MAX)
@@ -1161,7 +1166,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let unreported = produced_before - reported;
                     let r = cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported);
                     let slack = if sh.subcells { STALL_SLACK } else { 0 };
-                    (r, r.saturating_add(slack))
+                    (r, cap.saturating_add(slack))
                 };
                 let end = CellEnd {
                     t_start: out.tris.len(),
