@@ -6,7 +6,9 @@ trilinear isosurface S_K of the ORIGINAL volume (pmc_measure_distance).
 Run through bench/run.sh (it builds the project and fetches the real volume
 from PyPI). Every configuration runs in its own subprocess (`--worker`), so
 that its peak memory (VmHWM) is its own: the figure reported is the peak
-minus the worker's peak after it has loaded the volume.
+minus the worker's peak after it has loaded the volume. The small volumes'
+speed rows are run once more with the filters interleaved in one process
+(`interleaved`), where their 0.1-2 ms calls compare more steadily.
 
     bench/run.sh [--quick] [--out DIR]
 
@@ -281,7 +283,49 @@ def triangles_of(poly):
     return pts, conn.reshape(-1, 3)
 
 
+INTERLEAVED = (("FE", dict(kind="fe")),
+               ("classic", dict(kind="pmc", topology="classic", eps=0.0)),
+               ("trilinear", dict(kind="pmc", topology="trilinear", eps=0.0)),
+               ("classic SMP", dict(kind="pmc", topology="classic", eps=0.0, smp_tools=True)),
+               ("trilinear SMP", dict(kind="pmc", topology="trilinear", eps=0.0,
+                                      smp_tools=True)))
+
+
+def interleaved(cfg):
+    """The small volumes' speed comparison in one process: vtkFlyingEdges3D
+    (TBB) and PreciseMC with refinement off, each one pipeline kept for
+    all calls (as an application that contours again and again), called
+    in turn round after round (the order rotating), so that a neighbour's
+    burst on the shared machine slows every filter of a round alike.
+    Returns each filter's median time and the median over rounds of its
+    time over FlyingEdges' in the same round."""
+    from vtkmodules.vtkCommonCore import vtkSMPTools
+    if not vtkSMPTools.SetBackend("TBB"):
+        raise RuntimeError("SMP backend TBB not available")
+    vtkSMPTools.Initialize(cfg["threads"])
+    img = to_image(np.load(cfg["path"]))
+    filters = [(label, build(dict(cfg, **extra), img, cfg["iso"])) for label, extra in INTERLEAVED]
+    times = {label: [] for label, _ in filters}
+    warmup = 5
+    for k in range(warmup + cfg["rounds"]):
+        turn = filters[k % len(filters):] + filters[:k % len(filters)]
+        for label, f in turn:
+            f.Modified()
+            t0 = time.perf_counter()
+            f.Update()
+            if k >= warmup:
+                times[label].append(time.perf_counter() - t0)
+    fe = times["FE"]
+    return dict(cfg, filters={
+        label: dict(time=statistics.median(ts),
+                    ratio=statistics.median(t / e for t, e in zip(ts, fe)),
+                    tris=int(f.GetOutput().GetNumberOfCells()))
+        for (label, f), ts in zip(filters, times.values())})
+
+
 def worker(cfg):
+    if cfg["kind"] == "interleaved":
+        return interleaved(cfg)
     from vtkmodules.vtkCommonCore import vtkSMPTools
     threads = cfg["threads"]
     # Every filter's vtkSMPTools work (VTK's filters, and the copies into
@@ -348,6 +392,7 @@ def run_worker(cfg, env):
 
 EPSILONS = [0.1, 0.03, 0.01, 0.003, 0.001]
 SPEED_ROUNDS = 3  # rounds of the FlyingEdges and PreciseMC-off rows
+INTERLEAVED_ROUNDS = 300  # rounds of the small volumes' interleaved calls
 UPSAMPLE_CAP = 160e6  # largest upsampled volume (samples); 4 bytes each + FE's work
 MEASURE_CAP = 25000  # triangles measured per surface (every k-th); 5000 in the quick mode
 ALL_TRIANGLES = 10 ** 12  # a cap that measures every triangle
@@ -585,7 +630,8 @@ def fastest_fe(rs):
     return fe
 
 
-def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, reruns=()):
+def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, reruns=(),
+           interleaved=()):
     lines = []
     add = lines.append
     add("# PreciseMC against VTK\n")
@@ -707,6 +753,25 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, 
                         pair.append(f"{m[0][key] / fe[t]['time']:.2f}" if m and t in fe else "-")
                     cells.append(" / ".join(pair))
             add(f"| {name} | {calls} | " + " | ".join(cells) + " |")
+    if interleaved:
+        rounds = max((r.get("rounds", 0) for r in interleaved), default=0)
+        add("\nThe small volumes again, the filters interleaved in one process: "
+            "vtkFlyingEdges3D (TBB) and PreciseMC with refinement off, one pipeline each "
+            f"for all calls, called in turn for {rounds} rounds (after 5 unmeasured), "
+            "the order rotating; median time in ms, and in brackets the median over "
+            "rounds of the call's time over FlyingEdges' call of the same round (own "
+            "threads; SMP: tasks on vtkSMPTools):\n")
+        labels = [label for label, _ in INTERLEAVED]
+        add("| volume | threads | " + " | ".join(labels) + " |")
+        add("|---|---:|" + "---:|" * len(labels))
+        for r in interleaved:
+            if "error" in r:
+                add(f"| {r['vol']} | {r['threads']} | error: {r['error'][:80]} |")
+                continue
+            fs = r["filters"]
+            add(f"| {r['vol']} | {r['threads']} | " + " | ".join(
+                f"{fs[l]['time'] * 1000:.3f}" + ("" if l == "FE" else f" ({fs[l]['ratio']:.2f})")
+                for l in labels) + " |")
     refined = [r for r in results if r.get("kind") == "pmc" and r.get("eps", 0) > 0
                and "error" not in r and r["threads"] == 2 and r["tris"] >= 1e6]
     if refined:
@@ -853,7 +918,7 @@ def main():
             saved = json.load(f)
         report(saved["volumes"], saved["results"], out, saved["quick"], saved["seconds"],
                saved.get("machine"), saved.get("load"), saved.get("date"),
-               saved.get("reruns", ()))
+               saved.get("reruns", ()), saved.get("interleaved", ()))
         plots(saved["volumes"], saved["results"], out)
         return 0
     start = time.perf_counter()
@@ -896,6 +961,24 @@ def main():
     run_all(asked)
     more_rounds(cfgs, results, env)
     verify_maxima(results, env)
+    # The small volumes' speed rows again, the filters interleaved in one
+    # process (their calls take 0.1-2 ms, where a fresh pipeline a call
+    # and a neighbour's burst move the ratios above by a third).
+    inter = []
+    for name, v in vols.items():
+        if v["group"] != "small" or (args.only and name not in only):
+            continue
+        for t in (1, 2):
+            r = run_worker(dict(kind="interleaved", vol=name, path=v["path"], iso=v["iso"],
+                                threads=t, rounds=50 if args.quick else INTERLEAVED_ROUNDS), env)
+            inter.append(r)
+            print(f"[interleaved] {name:>14} {t}T " + (
+                f"error: {r['error']}" if "error" in r else "  ".join(
+                    f"{label} {x['time'] * 1000:.3f} ms ({x['ratio']:.2f})"
+                    for label, x in r["filters"].items())), flush=True)
+    if args.only:
+        inter = [r for r in saved.get("interleaved", []) if r["vol"] not in only] + inter
+        inter.sort(key=lambda r: (list(vols).index(r["vol"]), r["threads"]))
     # The rows of the volumes not re-run, in plan order around the new ones.
     order = {name: i for i, name in enumerate(vols)}
     results = sorted(kept + results, key=lambda r: (r.get("scaling", False), order[r["vol"]]))
@@ -911,12 +994,12 @@ def main():
         mach = saved.get("machine") or mach
     with open(os.path.join(out, "results.json"), "w") as f:
         json.dump(dict(volumes=vols, results=results, machine=mach, quick=args.quick,
-                       reruns=reruns, **run), f, indent=1)
+                       reruns=reruns, interleaved=inter, **run), f, indent=1)
     report(vols, results, out, args.quick, run["seconds"], mach=mach, load=run["load"],
-           date=run["date"], reruns=reruns)
+           date=run["date"], reruns=reruns, interleaved=inter)
     plots(vols, results, out)
     print(f"bench: {len(results)} configurations in {elapsed:.0f} s; results in {out}")
-    failed = [r for r in results if "error" in r]
+    failed = [r for r in results + inter if "error" in r]
     return 1 if failed else 0
 
 
