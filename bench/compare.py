@@ -298,15 +298,12 @@ def interleaved(cfg):
     in turn round after round (the order rotating), so that a neighbour's
     burst on the shared machine slows every filter of a round alike.
     Returns each filter's median time and the median over rounds of its
-    time over FlyingEdges' in the same round."""
-    from vtkmodules.vtkCommonCore import vtkSMPTools
-    if not vtkSMPTools.SetBackend("TBB"):
-        raise RuntimeError("SMP backend TBB not available")
-    vtkSMPTools.Initialize(cfg["threads"])
+    time over FlyingEdges' in the same round. Runs in `worker`, on the TBB
+    backend it sets up with the configuration's threads."""
     img = to_image(np.load(cfg["path"]))
     filters = [(label, build(dict(cfg, **extra), img, cfg["iso"])) for label, extra in INTERLEAVED]
     times = {label: [] for label, _ in filters}
-    warmup = 5
+    warmup = INTERLEAVED_WARMUP
     for k in range(warmup + cfg["rounds"]):
         turn = filters[k % len(filters):] + filters[:k % len(filters)]
         for label, f in turn:
@@ -324,8 +321,6 @@ def interleaved(cfg):
 
 
 def worker(cfg):
-    if cfg["kind"] == "interleaved":
-        return interleaved(cfg)
     from vtkmodules.vtkCommonCore import vtkSMPTools
     threads = cfg["threads"]
     # Every filter's vtkSMPTools work (VTK's filters, and the copies into
@@ -334,6 +329,8 @@ def worker(cfg):
     if not vtkSMPTools.SetBackend(cfg.get("smp", "TBB")):
         raise RuntimeError(f"SMP backend {cfg.get('smp', 'TBB')} not available")
     vtkSMPTools.Initialize(threads)
+    if cfg["kind"] == "interleaved":
+        return interleaved(cfg)
     a = np.load(cfg["path"])
     img = to_image(a)
     # Import everything the run needs before the baseline.
@@ -393,6 +390,7 @@ def run_worker(cfg, env):
 EPSILONS = [0.1, 0.03, 0.01, 0.003, 0.001]
 SPEED_ROUNDS = 3  # rounds of the FlyingEdges and PreciseMC-off rows
 INTERLEAVED_ROUNDS = 300  # rounds of the small volumes' interleaved calls
+INTERLEAVED_WARMUP = 5  # unmeasured rounds before them
 UPSAMPLE_CAP = 160e6  # largest upsampled volume (samples); 4 bytes each + FE's work
 MEASURE_CAP = 25000  # triangles measured per surface (every k-th); 5000 in the quick mode
 ALL_TRIANGLES = 10 ** 12  # a cap that measures every triangle
@@ -757,7 +755,8 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, 
         rounds = max((r.get("rounds", 0) for r in interleaved), default=0)
         add("\nThe small volumes again, the filters interleaved in one process: "
             "vtkFlyingEdges3D (TBB) and PreciseMC with refinement off, one pipeline each "
-            f"for all calls, called in turn for {rounds} rounds (after 5 unmeasured), "
+            f"for all calls, called in turn for {rounds} rounds (after {INTERLEAVED_WARMUP} "
+            "unmeasured), "
             "the order rotating; median time in ms, and in brackets the median over "
             "rounds of the call's time over FlyingEdges' call of the same round (own "
             "threads; SMP: tasks on vtkSMPTools):\n")
@@ -978,9 +977,9 @@ def main():
                     for label, x in r["filters"].items())), flush=True)
     if args.only:
         inter = [r for r in saved.get("interleaved", []) if r["vol"] not in only] + inter
-        inter.sort(key=lambda r: (list(vols).index(r["vol"]), r["threads"]))
     # The rows of the volumes not re-run, in plan order around the new ones.
     order = {name: i for i, name in enumerate(vols)}
+    inter.sort(key=lambda r: (order[r["vol"]], r["threads"]))
     results = sorted(kept + results, key=lambda r: (r.get("scaling", False), order[r["vol"]]))
     elapsed = time.perf_counter() - start
     run = dict(seconds=elapsed, load=load, date=time.strftime("%Y-%m-%d"))
