@@ -3,7 +3,7 @@
 //! * `mc`: plain Marching Cubes (refinement off), classic and trilinear
 //!   topology, on the smooth 128^3 and 256^3 `f32` samples with 1 and 2
 //!   threads; throughput in cells.
-//! * `refine`: refinement on the tube (9^3), atoms (11x14x14) and
+//! * `refine`: refinement on the tube (9^3), atoms (14^3) and
 //!   Marschner–Lobb (41^3) samples at several epsilons and rules, one
 //!   thread; throughput in output triangles.
 //!

@@ -472,8 +472,8 @@ public:
    * Set/Get whether the library's parallel steps run as vtkSMPTools tasks,
    * on the backend and thread count the application chose for
    * vtkSMPTools (TBB's pool, for instance, whose threads persist between
-   * executions), instead of on threads the library starts and joins in
-   * every execution. When on, NumberOfThreads is not used: the volume is
+   * executions), instead of on the library's own helper threads (which it
+   * keeps a second between executions). When on, NumberOfThreads is not used: the volume is
    * cut for vtkSMPTools::GetEstimatedNumberOfThreads() workers (on the
    * Sequential backend everything runs on the calling thread). Progress
    * is reported, and AbortExecute honoured, after the tasks run on the

@@ -42,12 +42,14 @@ pub(super) fn failure(e: Error) -> Failure {
 ///   offset out of range;
 /// - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
 /// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed (the
-///   output's, a slab's buffers as refinement fills them), or the worker
-///   threads could not be started (their stacks, or the process's limit on
-///   threads). (The small per-cell bookkeeping of refinement, and with a
-///   max level above about 6 a cell's whole patch, still grow as Rust
-///   vectors do: an allocation failure there aborts the process. Cap the
-///   output with `pmc_options_set_max_triangles` where memory is tight.)
+///   output's, a slab's buffers as refinement fills them). The small
+///   per-cell bookkeeping of refinement, and with a max level above about
+///   6 a cell's whole patch, still grow as Rust vectors do: an allocation
+///   failure there aborts the process. Cap the output with
+///   `pmc_options_set_max_triangles` where memory is tight. (Worker
+///   threads that cannot be started, for a process's limit on threads,
+///   are no error: their share runs on the threads that did start, the
+///   calling thread at least, with the same output.)
 ///
 /// The samples are read only during the call. The output does not depend
 /// on the thread count, and pieces of a volume that share a layer of
