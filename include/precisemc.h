@@ -31,7 +31,8 @@
 #define PMC_MAX_LEVEL_LIMIT 10
 
 /**
- * Highest value accepted by `pmc_options_set_threads`.
+ * Highest value accepted by `pmc_options_set_threads`, and for the
+ * concurrency of `pmc_options_set_executor`.
  */
 #define PMC_MAX_THREADS 4096
 
@@ -407,7 +408,8 @@ typedef struct pmc_stats {
      */
     uint64_t mc_triangles;
     /**
-     * Triangles in the output (= `pmc_mesh_triangle_count`).
+     * Triangles in the output (= `pmc_mesh_triangle_count` until
+     * `pmc_mesh_take_triangles` takes them).
      */
     uint64_t output_triangles;
     /**
@@ -493,9 +495,10 @@ typedef struct pmc_stats {
 /**
  * Progress callback: `fraction` goes from 0.0 to 1.0 and never decreases.
  * Called on the thread that called `pmc_extract`, first with 0.0, then
- * about every 20 ms (not in between for plain Marching Cubes of up to
- * 4 Mi cells on one thread, a few milliseconds of work done on the calling
- * thread), and last with 1.0 on success. Return 0 to continue,
+ * after each layer of cells the calling thread finishes and, within a
+ * long layer, about every 20 ms (not in between for plain Marching Cubes
+ * of up to 4 Mi cells on one thread, a few milliseconds of work done on
+ * the calling thread), and last with 1.0 on success. Return 0 to continue,
  * any other value to stop: the callback is not called again, and
  * `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
  * and produces no mesh.
@@ -593,7 +596,8 @@ size_t pmc_last_error_message(char *buf, size_t len);
  *   is `NULL`;
  * - `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume (see
  *   `pmc_volume`), an isovalue that is NaN or infinite, or an index
- *   offset out of range;
+ *   offset out of range, or when the options' executor returned without
+ *   running every task (see `pmc_options_set_executor`);
  * - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
  * - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed (the
  *   output's, a slab's buffers as refinement fills them). The small
@@ -653,9 +657,9 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * id out of range,
  * or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
- * made. Uses all cores (as many as can be started: the calling thread
- * alone where a limit on threads leaves none); the
- * result does not depend on their number.
+ * made. Uses all cores (the calling thread alone where a limit on
+ * threads keeps any of its workers from starting); the result does not
+ * depend on their number.
  *
  * # Safety
  *
@@ -773,8 +777,10 @@ int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
 const float *pmc_mesh_normals(const struct pmc_mesh *mesh);
 
 /**
- * Refinement level per triangle (0 = a Marching Cubes triangle):
- * `pmc_mesh_triangle_count` bytes. `NULL` for a `NULL` or empty mesh.
+ * Refinement level per triangle (0 = a Marching Cubes triangle): one
+ * byte per output triangle (`pmc_stats.output_triangles`; still there
+ * after `pmc_mesh_take_triangles`). `NULL` for a `NULL` mesh or one that
+ * never had triangles.
  *
  * # Safety
  *
@@ -848,8 +854,9 @@ void pmc_mesh_free(struct pmc_mesh *mesh);
 /**
  * Creates options with the defaults: epsilon 0.01, max level 5, rule
  * `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
- * `PMC_NORMALS_NONE`, no triangle cap, all cores, no progress callback,
- * no executor (threads of its own), index offset (0, 0, 0).
+ * `PMC_NORMALS_NONE`, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
+ * triangle cap, all cores, no progress callback, no executor (threads of
+ * its own), index offset (0, 0, 0).
  *
  * Returns a new handle owned by the caller, to be released with
  * `pmc_options_free`; `NULL` only if an internal error occurred.
@@ -912,9 +919,11 @@ pmc_status pmc_options_set_rule(struct pmc_options *options, pmc_rule rule);
 /**
  * Sets the reconstruction filter whose isosurface refinement follows,
  * one of the `PMC_RECONSTRUCTION_*` values. Default
- * `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology and edge
- * vertices always come from the samples; the cubic filters move only the
- * split points, need one extra layer of samples around a piece for
+ * `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology always comes
+ * from the samples (the trilinear decision); when refining with a cubic
+ * filter, its edge vertices first move along their grid edge onto the
+ * filter's isosurface (where the filter brackets one there), and split
+ * points move onto it too. The cubic filters need one extra layer of samples around a piece for
  * piece-independent output, and `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`
  * allocates one `double` per sample.
  *

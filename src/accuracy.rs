@@ -42,21 +42,23 @@ use crate::Error;
 #[derive(Debug, Clone)]
 pub struct MeasureOptions {
     /// Subdivisions of each triangle edge for the barycentric sample grid:
-    /// `(n + 1)(n + 2) / 2` samples per triangle. Default 4, at least 1.
+    /// `(n + 1)(n + 2) / 2` samples per triangle. Default 4, from 1 to
+    /// 1024.
     pub density: u32,
     /// Absolute tolerance of each distance, in cell units. Default 1e-5;
     /// at least [`MIN_TOLERANCE`] (the search's cost grows several times
     /// with every decade below the default).
     pub tolerance: f64,
-    /// Relative tolerance of each distance (a fraction of the distance).
-    /// Default 0.02: distances are certified to within
+    /// Relative tolerance of each distance (a fraction of the distance), in
+    /// `[0, 1)`. Default 0.02: distances are certified to within
     /// `tolerance + relative_tolerance * d`. With it 0 the search's cost
     /// grows as 1/`tolerance` where `S_K` curves around the sample (a
     /// sphere-like cap at nearly the same distance): a sample's search
     /// then stops after [`MAX_SEARCH_BOXES`] boxes (see there).
     pub relative_tolerance: f64,
-    /// Worker threads; 0 = all cores. Default 0. The result does not
-    /// depend on it.
+    /// Worker threads; 0 = all cores. Default 0; values above
+    /// [`crate::MAX_THREADS`] are clamped. The result does not depend on
+    /// it.
     pub threads: usize,
 }
 

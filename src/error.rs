@@ -2,8 +2,9 @@
 
 use thiserror::Error;
 
-/// Why an extraction could not run. Every variant is a caller mistake or a
-/// resource limit; none is a panic.
+/// Why an extraction could not run: a caller mistake, a resource limit,
+/// the caller's own stop ([`Error::Aborted`]) or a host executor that did
+/// not run its tasks ([`Error::Executor`]); none is a panic.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum Error {
     /// A dimension is below 2 (a volume needs at least one cell per axis).
@@ -118,8 +119,9 @@ pub enum Error {
     },
     /// A worker thread pool could not be created. No longer returned:
     /// where worker threads cannot start (a limit on threads), the
-    /// extraction and the measure run on the threads that did, the calling
-    /// thread at least. Kept so that matches on it still compile.
+    /// extraction runs on the threads that did, the calling thread at
+    /// least, and the measure on the calling thread. Kept so that matches
+    /// on it still compile.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),
     /// A cell or point outside the volume given to

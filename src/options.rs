@@ -100,7 +100,9 @@ pub struct Options {
     /// The most worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.
     /// The calling thread works beside `threads - 1` helper threads, which
-    /// are kept between calls (watching for work for 0.3 ms, then parked;
+    /// are kept between calls (a call that finds them busy with another
+    /// call starts helpers of its own and joins them before it returns;
+    /// kept ones watch for work for 0.3 ms, then parked;
     /// each returns after 1 s without work, and
     /// [`crate::release_retained_memory`] stops them at once). Plain
     /// Marching Cubes (no refinement) of a volume under 32 768 cells runs

@@ -22,7 +22,7 @@ use crate::{Samples, Volume};
 /// it is made for. Spacing 1 and origin 0 (index space = world space).
 #[derive(Debug, Clone)]
 pub struct SampleVolume<T = f32> {
-    /// Short name (`"tube"`, `"atoms"`, `"ml"`, `"smooth"`).
+    /// Short name (`"tube"`, `"atoms"`, `"ml"`, `"smooth"`, `"smooth_u8"`).
     pub name: &'static str,
     /// Samples per axis.
     pub dims: [u64; 3],
@@ -113,7 +113,7 @@ pub fn tube(n: u64) -> SampleVolume {
 
 /// An electron-density-like map in an `n^3` volume: a chain of Gaussian
 /// atoms (a short helix, 1.6 cells apart, width 1.1 cells) plus a few side
-/// atoms, values up to about 150, isovalue 50.5 (the paper's SOD
+/// atoms, values up to about 130, isovalue 50.5 (the paper's SOD
 /// threshold). Neighbouring atoms join through thin necks, where the
 /// trilinear topology and refinement change the surface most. `n >= 6`.
 pub fn atoms(n: u64) -> SampleVolume {

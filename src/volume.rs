@@ -130,8 +130,9 @@ pub struct Volume<'a> {
     /// Number of samples per axis (each in `2..=`[`MAX_DIMENSION`]).
     pub dims: [u64; 3],
     /// Element strides per axis (may be negative with a matching offset).
+    /// Default (from [`Volume::new`]): contiguous, x fastest.
     pub strides: [i64; 3],
-    /// Element index of local sample (0, 0, 0).
+    /// Element index of local sample (0, 0, 0). Default 0.
     pub offset: u64,
     /// Global index of local sample (0, 0, 0) (VTK's extent start), in
     /// samples; each within ±[`MAX_INDEX_OFFSET`]. Default 0.

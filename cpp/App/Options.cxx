@@ -356,7 +356,8 @@ options:
       --threads N       worker threads; 0 = all cores (default)
       --smp             run the library's work as vtkSMPTools tasks, on
                         VTK's SMP backend (VTK_SMP_BACKEND_IN_USE), with
-                        --threads N of them when N > 0; same output
+                        --threads N of them when N > 0 (at most the
+                        number of cores); same output
   -o, --output FILE     write the surface: .vtp, .ply, .stl or .obj. With
                         several volumes (--sample all), one file each:
                         FILE with "-<sample>" before the extension

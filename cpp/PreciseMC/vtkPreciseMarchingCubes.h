@@ -49,9 +49,12 @@
  * each triangle was subdivided (0 = Marching Cubes triangle).
  *
  * Any scalar type is contoured in place (no conversion or copy of the
- * volume), including one component of a multi-component array (see
- * SetArrayComponent()). Images with extents that do not start at 0, any
- * spacing and a direction matrix are supported: points computed for pieces
+ * volume; only an array without VTK's standard array-of-structures memory
+ * layout is copied first), including one component of a multi-component
+ * array (see SetArrayComponent()). Images with extents that do not start
+ * at 0, any finite non-zero spacing (negative too) and a direction matrix
+ * are supported (zero or non-finite spacing or origin is an error): points
+ * computed for pieces
  * of a volume that share a layer of samples are bit-identical.
  *
  * In a distributed pipeline each piece contours the input cropped to the
@@ -300,7 +303,8 @@ public:
   ///@{
   /**
    * Set/get which component of the scalar array to contour on; defaults to
-   * 0. The component is read in place (no copy of the volume).
+   * 0. The component is read in place (no copy of the volume, unless the
+   * array lacks the standard array-of-structures layout).
    */
   vtkSetMacro(ArrayComponent, int);
   vtkGetMacro(ArrayComponent, int);
@@ -457,9 +461,10 @@ public:
   ///@{
   /**
    * Set/Get the number of worker threads of the library; 0 (the default)
-   * uses all cores. Unless it is 1, a large output (65 536 points or more)
+   * uses all cores. Unless it is 1 (with UseSMPTools off), a large output
    * is also copied into the vtkPolyData through vtkSMPTools, with the
-   * backend and thread count the application set for it. The output does
+   * backend and thread count the application set for it: its points from
+   * 65 536 points, its triangles from 65 536 triangles. The output does
    * not depend on it. At most 4096 (the library's PMC_MAX_THREADS): a
    * larger value is clamped to it.
    */
@@ -523,7 +528,9 @@ public:
    *   sub-cells (trilinear filter and topology, MaxLevel >= 3 only).
    * - BudgetReached: whether MaxTriangles (or the library's safety cap)
    *   stopped refinement early for some contour value.
-   * - ExecutionTime: wall time of the library calls, seconds.
+   * - ExecutionTime: wall time of the contouring, seconds: the library
+   *   calls for every contour value, with the selection of the piece's own
+   *   triangles and the statistics (not the copy into the output).
    */
   vtkGetMacro(NumberOfMCTriangles, vtkTypeUInt64);
   vtkGetMacro(NumberOfRefinedTriangles, vtkTypeUInt64);

@@ -39,7 +39,8 @@ pub(super) fn failure(e: Error) -> Failure {
 ///   is `NULL`;
 /// - `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume (see
 ///   `pmc_volume`), an isovalue that is NaN or infinite, or an index
-///   offset out of range;
+///   offset out of range, or when the options' executor returned without
+///   running every task (see `pmc_options_set_executor`);
 /// - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
 /// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed (the
 ///   output's, a slab's buffers as refinement fills them). The small

@@ -84,7 +84,8 @@ pub struct pmc_stats {
     pub cells: u64,
     /// Triangles produced by Marching Cubes, before refinement.
     pub mc_triangles: u64,
-    /// Triangles in the output (= `pmc_mesh_triangle_count`).
+    /// Triangles in the output (= `pmc_mesh_triangle_count` until
+    /// `pmc_mesh_take_triangles` takes them).
     pub output_triangles: u64,
     /// Points in the output (= `pmc_mesh_point_count`).
     pub output_points: u64,
@@ -337,8 +338,10 @@ pub unsafe extern "C" fn pmc_mesh_normals(mesh: *const pmc_mesh) -> *const f32 {
     })
 }
 
-/// Refinement level per triangle (0 = a Marching Cubes triangle):
-/// `pmc_mesh_triangle_count` bytes. `NULL` for a `NULL` or empty mesh.
+/// Refinement level per triangle (0 = a Marching Cubes triangle): one
+/// byte per output triangle (`pmc_stats.output_triangles`; still there
+/// after `pmc_mesh_take_triangles`). `NULL` for a `NULL` mesh or one that
+/// never had triangles.
 ///
 /// # Safety
 ///

@@ -15,7 +15,8 @@ use crate::Options;
 pub const PMC_MAX_LEVEL_LIMIT: u32 = 10;
 const _: () = assert!(PMC_MAX_LEVEL_LIMIT == crate::MAX_LEVEL_LIMIT);
 
-/// Highest value accepted by `pmc_options_set_threads`.
+/// Highest value accepted by `pmc_options_set_threads`, and for the
+/// concurrency of `pmc_options_set_executor`.
 pub const PMC_MAX_THREADS: u32 = 4096;
 
 /// Largest magnitude of an index offset accepted by `pmc_extract` (2^31):
@@ -26,9 +27,10 @@ const _: () = assert!(PMC_MAX_INDEX_OFFSET == crate::MAX_INDEX_OFFSET);
 
 /// Progress callback: `fraction` goes from 0.0 to 1.0 and never decreases.
 /// Called on the thread that called `pmc_extract`, first with 0.0, then
-/// about every 20 ms (not in between for plain Marching Cubes of up to
-/// 4 Mi cells on one thread, a few milliseconds of work done on the calling
-/// thread), and last with 1.0 on success. Return 0 to continue,
+/// after each layer of cells the calling thread finishes and, within a
+/// long layer, about every 20 ms (not in between for plain Marching Cubes
+/// of up to 4 Mi cells on one thread, a few milliseconds of work done on
+/// the calling thread), and last with 1.0 on success. Return 0 to continue,
 /// any other value to stop: the callback is not called again, and
 /// `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
 /// and produces no mesh.
@@ -105,8 +107,9 @@ unsafe fn with_options(
 
 /// Creates options with the defaults: epsilon 0.01, max level 5, rule
 /// `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
-/// `PMC_NORMALS_NONE`, no triangle cap, all cores, no progress callback,
-/// no executor (threads of its own), index offset (0, 0, 0).
+/// `PMC_NORMALS_NONE`, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
+/// triangle cap, all cores, no progress callback, no executor (threads of
+/// its own), index offset (0, 0, 0).
 ///
 /// Returns a new handle owned by the caller, to be released with
 /// `pmc_options_free`; `NULL` only if an internal error occurred.
@@ -219,9 +222,11 @@ pub unsafe extern "C" fn pmc_options_set_rule(
 
 /// Sets the reconstruction filter whose isosurface refinement follows,
 /// one of the `PMC_RECONSTRUCTION_*` values. Default
-/// `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology and edge
-/// vertices always come from the samples; the cubic filters move only the
-/// split points, need one extra layer of samples around a piece for
+/// `PMC_RECONSTRUCTION_TRILINEAR`. Marching Cubes' topology always comes
+/// from the samples (the trilinear decision); when refining with a cubic
+/// filter, its edge vertices first move along their grid edge onto the
+/// filter's isosurface (where the filter brackets one there), and split
+/// points move onto it too. The cubic filters need one extra layer of samples around a piece for
 /// piece-independent output, and `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`
 /// allocates one `double` per sample.
 ///
