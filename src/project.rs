@@ -498,12 +498,13 @@ mod tests {
         let c = [-1.0, 0.5, 2.0, 0.2, 0.3, 1.5, -0.4, 0.9];
         for &(x, y, z) in &[(0.2, 0.2, 0.2), (0.5, 0.5, 0.5), (0.8, 0.1, 0.6)] {
             let p = DVec3::new(x, y, z);
-            if let Some(pr) = project::<Tri>(&c, 0.1, p, 0) {
-                let v = trilinear_value(&c, pr.point);
-                assert!((v - 0.1).abs() < 1e-12, "{v}");
-                assert!(pr.point.min_element() >= 0.0 && pr.point.max_element() <= 1.0);
-                assert!((pr.point - p).length() - pr.distance < 1e-12);
-            }
+            // Each point's gradient line meets S_K inside the cell.
+            let pr =
+                project::<Tri>(&c, 0.1, p, 0).unwrap_or_else(|| panic!("no projection from {p}"));
+            let v = trilinear_value(&c, pr.point);
+            assert!((v - 0.1).abs() < 1e-12, "{v}");
+            assert!(pr.point.min_element() >= 0.0 && pr.point.max_element() <= 1.0);
+            assert!(((pr.point - p).length() - pr.distance).abs() < 1e-12);
         }
         let _ = Grid::<f64>::new; // keep the type in scope for the alias
     }

@@ -274,24 +274,25 @@ fn non_finite_samples_cost_only_the_cells_near_them() {
     }
 }
 
-/// Pieces of one volume sharing a layer of samples, each with one extra
-/// ghost layer, give identical points on the shared layer.
+/// The default reconstruction is the trilinear filter: naming it gives the
+/// default's mesh, and the option is honoured (a cubic filter refines to
+/// a different mesh of the same volume).
 #[test]
-fn trilinear_default_is_unchanged() {
+fn trilinear_is_the_default_filter() {
+    assert_eq!(Options::default().reconstruction, Reconstruction::Trilinear);
     let dims = [10, 10, 10];
     let values = blobs(dims, 2, 5);
     let vol = Volume::new(&values, dims_u64(dims));
+    let with = |reconstruction| Options {
+        reconstruction,
+        ..Options::default()
+    };
     let a = extract(&vol, 0.0, &Options::default()).unwrap();
-    let b = extract(
-        &vol,
-        0.0,
-        &Options {
-            reconstruction: Reconstruction::Trilinear,
-            ..Options::default()
-        },
-    )
-    .unwrap();
+    assert!(a.triangles.len() > a.stats.mc_triangles as usize, "refined");
+    let b = extract(&vol, 0.0, &with(Reconstruction::Trilinear)).unwrap();
     assert!(same_mesh(&a, &b));
+    let c = extract(&vol, 0.0, &with(Reconstruction::CatmullRom)).unwrap();
+    assert!(!same_mesh(&a, &c), "Catmull-Rom gave the trilinear mesh");
 }
 
 /// Through the C API: the setter rejects unknown values and the extraction

@@ -23,6 +23,7 @@ fn recycled_arrays_are_kept_reused_and_change_nothing() {
     );
     let before = retained_bytes();
     let tri_bytes = std::mem::size_of::<[u64; 3]>() * first.triangles.capacity();
+    let mut held = first.triangles.as_ptr() as usize;
     first.recycle();
     assert!(
         retained_bytes() >= before + tri_bytes,
@@ -31,6 +32,13 @@ fn recycled_arrays_are_kept_reused_and_change_nothing() {
     );
     for _ in 0..3 {
         let again = extract(&v, s.isovalue, &o).unwrap();
+        // Reused: the output is written into the array recycled before.
+        assert_eq!(
+            again.triangles.as_ptr() as usize,
+            held,
+            "the recycled triangle array was not reused"
+        );
+        held = again.triangles.as_ptr() as usize;
         assert_eq!(again.triangles, tris);
         assert_eq!(again.levels, levels);
         assert!(again

@@ -3,7 +3,9 @@
 # sample, every output and input format, the pictures, and every kind of
 # bad input. Builds build/core and build/vtk first (incrementally, with
 # pmc_build_vtk from scripts/lib.sh: a no-op after tests/vtk/run.sh).
-# Prints "cli: N passed, M failed" last; exits non-zero on any failure.
+# Prints "cli: N passed, M failed, K skipped" last (a check that cannot
+# run here, as the thread-limit check without root, is skipped and said
+# so); exits non-zero on any failure.
 #
 # Environment: JOBS, PMC_SKIP_APT (see scripts/lib.sh); CLI_TMP to keep the
 # scratch files in a given directory.

@@ -43,6 +43,10 @@ class Failure(Exception):
     pass
 
 
+class Skipped(Exception):
+    """A check that cannot run here: reported and counted, not a pass."""
+
+
 def expect(condition, message):
     if not condition:
         raise Failure(message)
@@ -1601,13 +1605,11 @@ def a_limit_on_threads_runs_on_the_threads_that_start():
     on the threads that start, with the same surface and measure."""
     runuser, prlimit = shutil.which("runuser"), shutil.which("prlimit")
     if os.geteuid() != 0 or not runuser or not prlimit:
-        print("     (skipped: needs root, runuser and prlimit)")
-        return
+        raise Skipped("needs root, runuser and prlimit")
     probe = subprocess.run([runuser, "-u", "nobody", "--", TOOL, "--version"],
                            capture_output=True, text=True, timeout=TIMEOUT)
     if probe.returncode != 0:
-        print(f"     (skipped: user nobody cannot run {TOOL})")
-        return
+        raise Skipped(f"user nobody cannot run {TOOL}")
     args = ["--sample", "atoms", "--epsilon", "0.01", "--measure"]
     free = ok(*args)
     environment = dict(os.environ)
@@ -1635,10 +1637,13 @@ def main():
         print(f"cli: the tool {TOOL} is not built")
         print("cli: 0 passed, 1 failed")
         return 1
-    passed = failed = 0
+    passed = failed = skipped = 0
     for fn in CHECKS:
         try:
             fn()
+        except Skipped as e:
+            skipped += 1
+            print(f"skip {fn.__name__}: {e}", flush=True)
         except Failure as e:
             failed += 1
             print(f"FAIL {fn.__name__}: {e}", flush=True)
@@ -1651,7 +1656,7 @@ def main():
         else:
             passed += 1
             print(f"ok   {fn.__name__}", flush=True)
-    print(f"cli: {passed} passed, {failed} failed")
+    print(f"cli: {passed} passed, {failed} failed, {skipped} skipped")
     return 1 if failed else 0
 
 
