@@ -447,14 +447,15 @@ fn random_cells_match_the_trilinear_isosurface() {
 }
 
 /// Random 6^3 volumes with a border of -1 and random values in [-1, 1]
-/// inside (closed surfaces, ambiguous cells everywhere).
+/// inside (closed surfaces, ambiguous cells everywhere), plain and refined
+/// with every rule.
 #[test]
 fn random_volumes_match_the_trilinear_isosurface() {
     let dims = [6, 6, 6];
     let mut failures = Vec::new();
     let mut compared = 0;
     let mut seed = 0;
-    while compared < 10 && seed < 60 {
+    while compared < 20 && seed < 600 {
         seed += 1;
         let v = random_interior(dims, seed, -1.0, 1.0, -1.0);
         if volume_margin(&v, dims, 0.0) < 0.02 {
@@ -462,25 +463,32 @@ fn random_volumes_match_the_trilinear_isosurface() {
         }
         compared += 1;
         let r = volume_reference(&v, dims, 0.0, 12);
-        let mesh = extract(
-            &Volume::new(&v, dims_u64(dims)),
-            0.0,
-            &mc_opts(Topology::Trilinear),
-        )
-        .unwrap();
-        let c = check_mesh(&mesh);
         let want_components = r.inside_components + r.outside_components - 1;
         let want_euler = 2 * r.inside_euler;
-        if !c.is_closed_oriented_manifold()
-            || c.components != want_components
-            || c.euler != want_euler
-        {
-            failures.push(format!(
-                "seed {seed}: mesh {} components, chi {} ({c:?}); reference {} components ({} inside, {} outside), chi {}",
-                c.components, c.euler, want_components, r.inside_components, r.outside_components, want_euler
+        // Refinement subdivides the Marching Cubes triangles (and meshes
+        // stalled cells again on sub-cells, from level 3): the topology
+        // must stay the trilinear isosurface's.
+        let mut configs = vec![("MC".to_string(), mc_opts(Topology::Trilinear))];
+        for rule in RULES {
+            configs.push((
+                format!("{rule:?} eps 0.01 L4"),
+                refine_opts(Topology::Trilinear, rule, 0.01, 4),
             ));
         }
+        for (cfg, opts) in &configs {
+            let mesh = extract(&Volume::new(&v, dims_u64(dims)), 0.0, opts).unwrap();
+            let c = check_mesh(&mesh);
+            if !c.is_closed_oriented_manifold()
+                || c.components != want_components
+                || c.euler != want_euler
+            {
+                failures.push(format!(
+                    "seed {seed} {cfg}: mesh {} components, chi {} ({c:?}); reference {} components ({} inside, {} outside), chi {}",
+                    c.components, c.euler, want_components, r.inside_components, r.outside_components, want_euler
+                ));
+            }
+        }
     }
-    assert!(compared >= 5, "only {compared} volumes compared");
+    assert!(compared >= 15, "only {compared} volumes compared");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
