@@ -33,7 +33,7 @@ mod common;
 use common::*;
 use precisemc::mc::trilinear::face_decisions;
 use precisemc::tables::cube::{face_is_ambiguous, FACES};
-use precisemc::{extract, Topology, Volume};
+use precisemc::{extract, Options, Reconstruction, Rule, Topology, Volume};
 
 fn cell_mesh_check(f: &[f64; 8]) -> MeshCheck {
     let data = cell_volume(f);
@@ -473,6 +473,19 @@ fn random_volumes_match_the_trilinear_isosurface() {
             configs.push((
                 format!("{rule:?} eps 0.01 L4"),
                 refine_opts(Topology::Trilinear, rule, 0.01, 4),
+            ));
+        }
+        // The cubic filters move points, never the topology.
+        for reconstruction in [
+            Reconstruction::CatmullRom,
+            Reconstruction::BSplineInterpolating,
+        ] {
+            configs.push((
+                format!("A1 {reconstruction:?} eps 0.01 L4"),
+                Options {
+                    reconstruction,
+                    ..refine_opts(Topology::Trilinear, Rule::A1, 0.01, 4)
+                },
             ));
         }
         for (cfg, opts) in &configs {
