@@ -32,9 +32,9 @@ use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use glam::DVec3;
-use rayon::prelude::*;
 
 use crate::filter::trilinear_value;
+use crate::par::Exec;
 use crate::volume::{Grid, Scalar, Volume};
 use crate::Error;
 
@@ -57,8 +57,9 @@ pub struct MeasureOptions {
     /// then stops after [`MAX_SEARCH_BOXES`] boxes (see there).
     pub relative_tolerance: f64,
     /// Worker threads; 0 = all cores. Default 0; values above
-    /// [`crate::MAX_THREADS`] are clamped. The result does not depend on
-    /// it.
+    /// [`crate::MAX_THREADS`] are clamped. The calling thread works beside
+    /// the extraction's helper threads (see [`crate::Options::threads`]).
+    /// The result does not depend on it.
     pub threads: usize,
 }
 
@@ -182,21 +183,18 @@ pub fn measure(
             "points must lie within 1e60 cells of the volume (MAX_MEASURE_REACH)",
         ));
     }
-    let on_caller = || {
+    let run = |exec: Exec<'_>| {
         crate::volume::with_grid!(volume, |grid| measure_grid(
-            grid, isovalue, &local, triangles, options, false
+            grid, isovalue, &local, triangles, options, exec
         ))
     };
     if threads == 1 {
-        return Ok(on_caller());
+        return run(Exec::Serial);
     }
-    let pooled = crate::par::with_scoped_pool(threads, |pool| {
-        crate::volume::with_grid!(volume, |grid| pool
-            .install(|| measure_grid(grid, isovalue, &local, triangles, options, true)))
-    });
-    // Where the pool's threads could not all start (a limit on threads),
-    // the calling thread measures alone: the result is the same.
-    Ok(pooled.unwrap_or_else(on_caller))
+    // The extraction's helper threads beside the calling thread: where a
+    // limit on threads lets only some start, those (the calling thread at
+    // least) measure, with the same result.
+    crate::helpers::with_helpers(threads, |lease| run(Exec::Helpers(lease)))
 }
 
 /// Per-triangle partial sums, combined in triangle order (deterministic).
@@ -219,8 +217,8 @@ fn measure_grid<T: Scalar>(
     points: &[DVec3],
     triangles: &[[u64; 3]],
     options: &MeasureOptions,
-    parallel: bool,
-) -> Distance {
+    exec: Exec<'_>,
+) -> Result<Distance, Error> {
     let n = options.density as usize;
     let per_tri = (n + 1) * (n + 2) / 2;
     // Fixed-size chunks summed in order: the result does not depend on
@@ -260,11 +258,7 @@ fn measure_grid<T: Scalar>(
         }
         s
     };
-    let sums: Vec<Sums> = if parallel {
-        triangles.par_chunks(256).map(sum_chunk).collect()
-    } else {
-        triangles.chunks(256).map(sum_chunk).collect()
-    };
+    let sums: Vec<Sums> = exec.map(triangles.chunks(256).collect(), sum_chunk)?;
     let mut total = Sums::default();
     for s in sums {
         total.max = total.max.max(s.max);
@@ -290,13 +284,13 @@ fn measure_grid<T: Scalar>(
     } else {
         (0.0, 0.0)
     };
-    Distance {
+    Ok(Distance {
         max: total.max,
         mean,
         rms,
         samples: total.samples,
         unresolved: total.unresolved,
-    }
+    })
 }
 
 /// A box of the search: lower bound of the distance, origin (local grid

@@ -119,9 +119,9 @@ pub enum Error {
     },
     /// A worker thread pool could not be created. No longer returned:
     /// where worker threads cannot start (a limit on threads), the
-    /// extraction runs on the threads that did, the calling thread at
-    /// least, and the measure on the calling thread. Kept so that matches
-    /// on it still compile.
+    /// extraction and the measure run on the threads that did, the
+    /// calling thread at least. Kept so that matches on it still
+    /// compile.
     #[error("cannot start worker threads: {0}")]
     ThreadPool(String),
     /// A cell or point outside the volume given to

@@ -1,4 +1,4 @@
-//! The library's threads (the helpers, and the pool of the distance
+//! The library's threads (the helpers of the extraction and the distance
 //! measure), started with `pthread_create` itself on Unix rather than
 //! through `std::thread`.
 //!

@@ -14,7 +14,6 @@ use std::time::{Duration, Instant};
 
 use crate::executor::Executor;
 use crate::helpers::Lease;
-use crate::os_thread::OsThread;
 use crate::Error;
 
 /// The executor of an extraction's parallel steps.
@@ -89,49 +88,6 @@ impl Exec<'_> {
         }
         Ok(())
     }
-}
-
-/// Runs `f` on a scoped pool of `threads` threads, all joined before it
-/// returns (no thread outlives the call: a host may unload the library
-/// right after). `None` when the pool's threads could not all start (a
-/// process or container limit on threads): the caller then runs the work
-/// another way, with the same result.
-pub(crate) fn with_scoped_pool<R>(
-    threads: usize,
-    f: impl FnOnce(&rayon::ThreadPool) -> R,
-) -> Option<R> {
-    #[cfg(test)]
-    if POOL_FAILS.with(|f| f.get()) {
-        return None;
-    }
-    // The pool's threads are started with `pthread_create` (see
-    // `os_thread`: a child forked while one started could start none) and
-    // joined once the pool is dropped, whether it was built or not, and
-    // if `f` panics (the pool, declared after, is dropped first).
-    struct JoinAll(Vec<OsThread>);
-    impl Drop for JoinAll {
-        fn drop(&mut self) {
-            for t in self.0.drain(..) {
-                t.join();
-            }
-        }
-    }
-    let mut started = JoinAll(Vec::new());
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .spawn_handler(|thread| {
-            let t = OsThread::spawn("precisemc-pool", move || thread.run())?;
-            started.0.push(t);
-            Ok(())
-        })
-        .build();
-    pool.ok().map(|pool| f(&pool))
-}
-
-#[cfg(test)]
-thread_local! {
-    /// Makes this thread's pools fail to start (tests of the fallbacks).
-    pub(crate) static POOL_FAILS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// Items a task of an external executor gets in [`Exec::extend`]: a few

@@ -55,9 +55,10 @@ pub struct pmc_distance {
 /// id out of range,
 /// or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
-/// made. Uses all cores (the calling thread alone where a limit on
-/// threads keeps any of its workers from starting); the result does not
-/// depend on their number.
+/// made. Uses all cores, on the extraction's helper threads beside the
+/// calling thread (where a limit on threads lets only some start, those,
+/// the calling thread at least); the result does not depend on their
+/// number.
 ///
 /// # Safety
 ///
