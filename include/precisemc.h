@@ -924,9 +924,10 @@ pmc_status pmc_options_set_rule(struct pmc_options *options, pmc_rule rule);
  * from the samples (the trilinear decision); when refining with a cubic
  * filter, its edge vertices first move along their grid edge onto the
  * filter's isosurface (where the filter brackets one there), and split
- * points move onto it too. The cubic filters need one extra layer of samples around a piece for
- * piece-independent output, and `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`
- * allocates one `double` per sample.
+ * points move onto it too. The cubic filters need one extra layer of
+ * samples around a piece for piece-independent output, and
+ * `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING` allocates one `double` per
+ * sample.
  *
  * Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) for any other
  * value; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.
