@@ -478,11 +478,12 @@ public:
    * on the backend and thread count the application chose for
    * vtkSMPTools (TBB's pool, for instance, whose threads persist between
    * executions), instead of on the library's own helper threads (which it
-   * keeps a second between executions). When on, NumberOfThreads is not used: the volume is
-   * cut for vtkSMPTools::GetEstimatedNumberOfThreads() workers (on the
-   * Sequential backend everything runs on the calling thread). Progress
-   * is reported, and AbortExecute honoured, after the tasks run on the
-   * calling thread: TBB runs some there; on the STDThread backend, which
+   * keeps a second between executions). When on, NumberOfThreads is not
+   * used: the volume is cut for vtkSMPTools::GetEstimatedNumberOfThreads()
+   * workers (on the Sequential backend everything runs on the calling
+   * thread). Progress is reported, and AbortExecute honoured, after the
+   * tasks run on the calling thread: TBB runs some there; on the STDThread
+   * backend, which
    * runs none of a For there, the calling thread takes tasks beside the
    * vtkSMPTools workers (one fewer of them, from a helper thread) so that
    * a long refinement still reports progress and stops when aborted.
