@@ -454,6 +454,29 @@ fn random_volumes_match_the_trilinear_isosurface() {
     let dims = [6, 6, 6];
     let mut failures = Vec::new();
     let mut compared = 0;
+    // Refinement subdivides the Marching Cubes triangles (and meshes
+    // stalled cells again on sub-cells, from level 3): the topology
+    // must stay the trilinear isosurface's.
+    let mut configs = vec![("MC".to_string(), mc_opts(Topology::Trilinear))];
+    for rule in RULES {
+        configs.push((
+            format!("{rule:?} eps 0.01 L4"),
+            refine_opts(Topology::Trilinear, rule, 0.01, 4),
+        ));
+    }
+    // The cubic filters move points, never the topology.
+    for reconstruction in [
+        Reconstruction::CatmullRom,
+        Reconstruction::BSplineInterpolating,
+    ] {
+        configs.push((
+            format!("A1 {reconstruction:?} eps 0.01 L4"),
+            Options {
+                reconstruction,
+                ..refine_opts(Topology::Trilinear, Rule::A1, 0.01, 4)
+            },
+        ));
+    }
     let mut seed = 0;
     while compared < 20 && seed < 600 {
         seed += 1;
@@ -465,31 +488,9 @@ fn random_volumes_match_the_trilinear_isosurface() {
         let r = volume_reference(&v, dims, 0.0, 12);
         let want_components = r.inside_components + r.outside_components - 1;
         let want_euler = 2 * r.inside_euler;
-        // Refinement subdivides the Marching Cubes triangles (and meshes
-        // stalled cells again on sub-cells, from level 3): the topology
-        // must stay the trilinear isosurface's.
-        let mut configs = vec![("MC".to_string(), mc_opts(Topology::Trilinear))];
-        for rule in RULES {
-            configs.push((
-                format!("{rule:?} eps 0.01 L4"),
-                refine_opts(Topology::Trilinear, rule, 0.01, 4),
-            ));
-        }
-        // The cubic filters move points, never the topology.
-        for reconstruction in [
-            Reconstruction::CatmullRom,
-            Reconstruction::BSplineInterpolating,
-        ] {
-            configs.push((
-                format!("A1 {reconstruction:?} eps 0.01 L4"),
-                Options {
-                    reconstruction,
-                    ..refine_opts(Topology::Trilinear, Rule::A1, 0.01, 4)
-                },
-            ));
-        }
+        let volume = Volume::new(&v, dims_u64(dims));
         for (cfg, opts) in &configs {
-            let mesh = extract(&Volume::new(&v, dims_u64(dims)), 0.0, opts).unwrap();
+            let mesh = extract(&volume, 0.0, opts).unwrap();
             let c = check_mesh(&mesh);
             if !c.is_closed_oriented_manifold()
                 || c.components != want_components
