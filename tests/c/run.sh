@@ -186,6 +186,14 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             [[ $(soname_of "$LIB_DIR/libprecisemc.so") == "$SONAME" ]]
     }
     run_test cmake_installed_library installed_library
+    # Both licence texts, as the files of the source tree.
+    installed_licences() {
+        local f
+        for f in LICENSE-MIT LICENSE-APACHE; do
+            cmp "$ROOT/$f" "$PREFIX/share/licenses/PreciseMC/$f" || return 1
+        done
+    }
+    run_test cmake_installed_licences installed_licences
 
     consumer() { # consumer NAME CMAKE_ARGS...
         local dir=$OUT/consumer-$1

@@ -41,3 +41,7 @@ def test_install_and_import(tmp_path):
     assert str(prefix) in out
     assert (prefix / "lib" / "cmake" / "PreciseMCVTK" / "PreciseMCVTKConfig.cmake").exists() or \
         list(prefix.glob("lib*/cmake/PreciseMCVTK/PreciseMCVTKConfig.cmake"))
+    # Both licence texts, as the files of the source tree.
+    for name in ("LICENSE-MIT", "LICENSE-APACHE"):
+        installed = prefix / "share" / "licenses" / "PreciseMCVTK" / name
+        assert installed.read_bytes() == (ROOT / name).read_bytes(), name
