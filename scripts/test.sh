@@ -30,6 +30,9 @@ stage "rustfmt" cargo fmt --all -- --check
 stage "clippy" cargo clippy --all-targets -- -D warnings
 stage "cargo test" cargo test --all-targets
 stage "doc tests" cargo test --doc
+# The crate as crates.io would hold it (Cargo.toml's include list) builds
+# on its own. --offline: the stages above fetched its dependencies.
+stage "crate package" cargo package --allow-dirty --offline --quiet
 stage "C API" bash tests/c/run.sh
 stage "VTK filter" bash tests/vtk/run.sh
 stage "command-line tool" bash tests/cli/run.sh
