@@ -30,6 +30,8 @@ stage "rustfmt" cargo fmt --all -- --check
 stage "clippy" cargo clippy --all-targets -- -D warnings
 stage "cargo test" cargo test --all-targets
 stage "doc tests" cargo test --doc
+# The API documentation builds without warnings (broken intra-doc links).
+stage "rustdoc" env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --quiet
 # The crate as crates.io would hold it (Cargo.toml's include list) builds
 # on its own. --offline: the stages above fetched its dependencies.
 stage "crate package" cargo package --allow-dirty --offline --quiet
