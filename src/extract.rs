@@ -371,8 +371,9 @@ const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 15;
 const SERIAL_ASSEMBLY_TRIANGLES: usize = 1 << 16;
 
 /// The most leaves a refined cell's patch can have (its Marching Cubes
-/// triangles times 4^max_level) for which the slab's buffers are reserved
-/// for the whole patch before refining it (fallibly; see `slab_pass`).
+/// triangles times [`crate::options::Rule::most_children`] to the power
+/// max_level) for which the slab's buffers are reserved for the whole
+/// patch before refining it (fallibly; see `slab_pass`).
 const CELL_RESERVE_LIMIT: u64 = 1 << 16;
 
 /// With refinement off, the fewest cell layers a slab gets while there
@@ -1260,14 +1261,19 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 local.clear();
                 // Room for the cell's whole refined patch, reserved up front
                 // where its worst case is modest (4^max_level leaves per
-                // Marching Cubes triangle, up to max level 6 or 7; the
-                // slab's map gets the points its boundary edges can split
-                // into): the slab's buffers, the large allocations, then
+                // Marching Cubes triangle under rules A and A1, 6^max_level
+                // under A2 and B: up to level 6-8 or 4-6 by the cell's
+                // triangles; the slab's map gets the points its boundary
+                // edges can split into): the slab's buffers, the large
+                // allocations, then
                 // grow here, where a failure is an error, and not while the
                 // patch is emitted, where it would abort the process.
+                // (The leaves reserved for, to check the bound in tests.)
+                let mut reserved = usize::MAX;
                 if !count_only {
                     let level = sh.max_level.min(31);
-                    let worst = (kept.len() as u64).saturating_mul(1u64 << (2 * level));
+                    let worst = (kept.len() as u64)
+                        .saturating_mul(opts.rule.most_children().saturating_pow(level));
                     if worst <= CELL_RESERVE_LIMIT {
                         let n = worst as usize;
                         let on_faces = 3 * (kept.len() << level) + 16;
@@ -1284,6 +1290,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             out.scratch_failed = bytes;
                             break 'layers;
                         }
+                        reserved = n;
                     }
                 }
                 // Whether refinement merged two of the cell's points (split
@@ -1491,6 +1498,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         out.counters.unsound_cells += 1;
                     }
                 }
+                debug_assert!(
+                    out.tris.len() - t_start <= reserved,
+                    "a patch of {} leaves outgrew its reservation of {reserved}",
+                    out.tris.len() - t_start
+                );
                 // A patch still far from S_K with long edges at the last
                 // level: refinement stalled on a fold; mesh the cell again
                 // on sub-cells, joined to the outline drawn above.
@@ -1859,7 +1871,7 @@ fn report_emitted<T: Scalar, F: ReconstructionFilter>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Topology;
+    use crate::{Rule, Topology};
 
     fn random_values(n: usize, seed: u64, f: impl Fn(f64) -> f64) -> Vec<f64> {
         let mut x = seed;
@@ -2159,5 +2171,41 @@ mod tests {
                 }
             }
         }
+    }
+    /// Rules A2 and B split a triangle in six, so a patch can have more
+    /// leaves than 4^max_level per Marching Cubes triangle: the room
+    /// reserved for a cell's patch must cover that (a debug assertion in
+    /// `slab_pass` checks each patch against its reservation; with 4^level
+    /// reserved it failed here).
+    #[test]
+    fn a_cell_reservation_covers_six_way_splits() {
+        let level = 4;
+        let mut beyond_four = false;
+        for seed in 1..=6 {
+            let values = random_values(5 * 5 * 5, seed, |u| u - 0.5);
+            let v = Volume::new(values.as_slice(), [5, 5, 5]);
+            for rule in [Rule::A, Rule::A1, Rule::A2, Rule::B] {
+                let o = Options {
+                    epsilon: 1e-6,
+                    max_level: level,
+                    rule,
+                    ..Options::default()
+                };
+                let mesh = crate::extract(&v, 0.0, &o).unwrap();
+                let (mc, out) = (mesh.stats.mc_triangles, mesh.stats.output_triangles);
+                assert!(mc > 0, "seed {seed}: no surface");
+                // The bound itself, over the whole mesh.
+                let most = rule.most_children().pow(level);
+                assert!(
+                    out <= mc * most,
+                    "{rule:?} seed {seed}: {out} > {mc} x {most}"
+                );
+                beyond_four |= out > mc * 4u64.pow(level);
+            }
+        }
+        assert!(
+            beyond_four,
+            "no patch went past 4^level: the case is not exercised"
+        );
     }
 }

@@ -34,6 +34,20 @@ pub enum Rule {
     B,
 }
 
+impl Rule {
+    /// The most triangles one split makes of a triangle: four (three edge
+    /// midpoints) under rules A and A1, whose centroid only ever comes
+    /// alone; six (the midpoints and a fourth point) under A2 and B. A
+    /// Marching Cubes triangle refined to level `l` has at most this to
+    /// the power `l` leaves.
+    pub(crate) fn most_children(self) -> u64 {
+        match self {
+            Rule::A | Rule::A1 => 4,
+            Rule::A2 | Rule::B => 6,
+        }
+    }
+}
+
 /// Which normals to compute for the output points. Unit vectors in
 /// float32, or `[0, 0, 0]` where the gradient they are made from vanishes
 /// (central differences that cancel, common on data of two values, as in

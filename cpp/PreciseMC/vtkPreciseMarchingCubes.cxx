@@ -640,6 +640,17 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   vtkDataArray* inScalars = this->GetInputArrayToProcess(0, inputVector, association);
   if (inScalars == nullptr)
   {
+    // An array that is there but holds no numbers (strings, variants) is
+    // not a data array: name it rather than say there is none.
+    int anyAssociation = vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    vtkAbstractArray* any = this->GetInputAbstractArrayToProcess(0, inputVector, anyAssociation);
+    if (any != nullptr)
+    {
+      vtkErrorMacro(<< "Unsupported scalar type " << any->GetDataTypeAsString() << " of array "
+                    << (any->GetName() ? any->GetName() : "(unnamed)")
+                    << ": integer and floating point arrays are supported");
+      return 1;
+    }
     vtkErrorMacro(<< "No scalars to contour: the input has no point scalars "
                   << "(or no array selected with SetInputArrayToProcess())");
     return 1;
@@ -886,6 +897,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   if (!axisAligned)
   {
     double scaled[3][3];
+    for (int r = 0; r < 3; ++r)
+    {
+      for (int c = 0; c < 3; ++c)
+      {
+        if (!std::isfinite(direction->GetElement(r, c)))
+        {
+          vtkErrorMacro(<< "The direction matrix of the input has a NaN or infinite entry");
+          output->Initialize();
+          return 1;
+        }
+      }
+    }
     for (int r = 0; r < 3; ++r)
     {
       for (int c = 0; c < 3; ++c)

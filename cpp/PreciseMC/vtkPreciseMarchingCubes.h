@@ -61,24 +61,21 @@
  * requested update extent. Image pieces share their boundary samples, so
  * the union of the pieces' surfaces is the surface of the whole volume,
  * without cracks or overlaps (a piece that is a single layer of samples
- * holds no cell and has an empty output; a 2D input is an error). Where a
- * plane of samples equals the isovalue, the cells on its two sides emit
- * the same flat triangles with opposite orientations, which cancel: so
- * that a piece cut along such a plane sees the cells across it, the filter
- * always asks for at least one ghost level, contours the cells across the
- * piece's faces too and keeps only the triangles of the piece's own cells.
- * Normals at a point on a piece's face read
- * the samples beyond it, so with ComputeNormals on the filter asks for one
- * ghost level and keeps only the triangles of the piece's own cells (as
- * below). Refining with the trilinear topology from MaxLevel 3 up, a
- * cell where refinement stalls is meshed again on sub-cells, and its strips
- * in a face cancel against those of a neighbour meshed again too: the
- * filter then asks for one ghost level, contours the cells across the
- * piece's faces too and keeps only the triangles of the piece's own cells.
- * The cubic filters read one more layer of samples around every cell, so
- * they ask for two ghost levels (the second gives the ghost cells next to
- * the piece their whole neighbourhood; BSplineInterpolating, whose
- * prefilter is global, asks for the whole volume), likewise. The union is
+ * holds no cell and has an empty output; a 2D input is an error). The
+ * filter always asks for at least one ghost level, contours the cells
+ * across the piece's faces too and keeps only the triangles of the
+ * piece's own cells, for three reasons: where a plane of samples equals
+ * the isovalue, the cells on its two sides emit the same flat triangles
+ * with opposite orientations, which cancel, so a piece cut along such a
+ * plane must see the cells across it; normals at a point on a piece's
+ * face read the samples beyond it; and refining with the trilinear
+ * topology from MaxLevel 3 up, a cell where refinement stalls is meshed
+ * again on sub-cells, whose strips in a face cancel against those of a
+ * neighbour meshed again too. The cubic filters read one more layer of
+ * samples around every cell, so they ask for two ghost levels (the second
+ * gives the ghost cells next to the piece their whole neighbourhood;
+ * BSplineInterpolating, whose prefilter is global, asks for the whole
+ * volume). The union is
  * in every case exactly the serial surface (see
  * SetReconstructionFilter()), unless MaxTriangles lowers a piece's level:
  * each piece meets the cap on its own (see SetMaxTriangles()). An input
@@ -97,9 +94,11 @@
  * number of threads.
  *
  * @warning
- * Refinement can multiply the number of triangles by up to 4^MaxLevel in
- * the worst case; SetMaxTriangles() caps the output (refinement then stops
- * at the highest level that fits, see GetBudgetReached()).
+ * Refinement can multiply the number of triangles by up to 4^MaxLevel
+ * (rules A and A1) or 6^MaxLevel (rules A2 and B) in the worst case;
+ * SetMaxTriangles() caps the output (refinement then stops at the highest
+ * level that fits, see GetBudgetReached()), and without a cap the library
+ * still stops refinement at 250 million triangles of a contour value.
  *
  * @warning
  * Cells with a NaN or infinite corner sample produce no triangles.
@@ -449,7 +448,7 @@ public:
    * Set/Get a cap on the number of output triangles of each contour value;
    * refinement stops at the highest level that fits (the Marching Cubes
    * triangles are always kept, whatever the cap). 0 (the default) means
-   * no cap. A piece of a distributed run meets the cap on its own, with
+   * no cap but the library's own, 250 million. A piece of a distributed run meets the cap on its own, with
    * its own triangles: two pieces stopping at different levels do not
    * meet along their cut, and the filter warns when the cap lowered the
    * level of a piece (raise the cap, or contour the volume in one piece).

@@ -170,7 +170,8 @@ pub unsafe extern "C" fn pmc_options_set_epsilon(
 }
 
 /// Sets the maximum refinement level: each level can split a triangle into
-/// up to 4. Default 5. `0` turns refinement off (plain Marching Cubes).
+/// up to 4 (rules A and A1) or 6 (rules A2 and B). Default 5. `0` turns
+/// refinement off (plain Marching Cubes).
 ///
 /// Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) above
 /// `PMC_MAX_LEVEL_LIMIT`; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.

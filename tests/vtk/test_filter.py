@@ -462,6 +462,12 @@ def test_singular_direction_is_refused_before_any_work():
     f = refused(image, 150.0, "singular")
     assert f.GetNumberOfExecutions() == 0
     assert f.GetNumberOfMCTriangles() == 0 and f.GetNumberOfRefinedTriangles() == 0
+    # A NaN or infinite entry is named as such (it was called singular).
+    for bad in (math.nan, math.inf):
+        image = wavelet(8)
+        image.SetDirectionMatrix(1, 0, 0, 0, 1, bad, 0, 0, 1)
+        f = refused(image, 150.0, "NaN or infinite entry")
+        assert f.GetNumberOfExecutions() == 0
 
 
 @pytest.mark.parametrize("direction, spacing", [
@@ -1238,6 +1244,22 @@ def test_library_scalar_type_and_unsupported_arrays():
         bits.SetValue(i, i % 2)
     image.GetPointData().SetScalars(bits)
     refused(image, 0.5, "Unsupported scalar type bit")
+    # A string array selected by name is named too (it is no data array:
+    # the error said there were no scalars).
+    words = core.vtkStringArray()
+    words.SetName("labels")
+    words.SetNumberOfValues(27)
+    for i in range(27):
+        words.SetValue(i, str(i))
+    image.GetPointData().AddArray(words)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 0.5)
+    f.SetInputArrayToProcess(0, 0, 0, 0, "labels")
+    errors = ErrorObserver(f)
+    f.Update()
+    assert errors.errors and "Unsupported scalar type string of array labels" in errors.errors[-1]
+    assert f.GetOutput().GetNumberOfPoints() == 0
 
 
 def test_release_retained_memory_frees_the_bins_and_keeps_the_output():
