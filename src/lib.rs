@@ -87,15 +87,17 @@ pub use options::{NormalMode, Options, Reconstruction, Rule, Topology};
 pub use recycle::{release_retained_memory, retained_bytes, RETAIN_LIMIT};
 pub use volume::{Samples, Scalar, ScalarType, Volume, MAX_DIMENSION, MAX_INDEX_OFFSET};
 
-/// Highest accepted `max_level`. Each level can multiply a triangle by 4,
-/// and levels beyond 10 only add triangles far below any useful epsilon.
+/// Highest accepted `max_level`. Each level can multiply a triangle by 4
+/// (6 under rules A2 and B), and levels beyond 10 only add triangles far
+/// below any useful epsilon.
 pub const MAX_LEVEL_LIMIT: u32 = 10;
 
 /// Refinement never takes the output past this many triangles, whatever
-/// the options, so that a tiny epsilon with a high max level cannot
-/// exhaust memory (about 64 bytes per triangle with its share of points:
-/// 16 GiB at most). Refinement stops at the highest level that fits, like
-/// a caller's cap; the Marching Cubes triangles are always kept, so a
-/// volume whose plain Marching Cubes surface is larger still gets it
-/// whole.
+/// the options, which bounds the memory a tiny epsilon with a high max
+/// level can take (about 64 bytes per triangle with its share of points:
+/// some 16 GiB at the cap; with less memory, set
+/// [`Options::max_triangles`]). Refinement stops at the highest level that
+/// fits, like a caller's cap; the Marching Cubes triangles are always
+/// kept, so a volume whose plain Marching Cubes surface is larger still
+/// gets it whole.
 pub const HARD_TRIANGLE_CAP: u64 = 250_000_000;
