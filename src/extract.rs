@@ -120,6 +120,7 @@ pub fn extract_with_progress(
         world_points: true,
         executor: None,
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
+        extreme: None,
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -152,6 +153,7 @@ pub fn extract_with_executor(
         world_points: true,
         executor: Some(executor),
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
+        extreme: None,
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -179,6 +181,7 @@ pub(crate) fn extract_index_points(
         world_points: false,
         executor,
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
+        extreme: None,
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -203,6 +206,9 @@ struct How<'e> {
     /// Meshes of fewer triangles are assembled on the calling thread
     /// ([`SERIAL_ASSEMBLY_TRIANGLES`]; tests use 0).
     serial_assembly_triangles: usize,
+    /// Set when a refined cell's samples (or the isovalue) are of a
+    /// magnitude refinement's products cannot take (see `magnitude`).
+    extreme: Option<&'e AtomicBool>,
 }
 
 /// [`extract_with_progress`], run as `how` says.
@@ -223,8 +229,68 @@ fn extract_in_slabs(
     if options.max_level > MAX_LEVEL_LIMIT {
         return Err(Error::InvalidMaxLevel(options.max_level));
     }
-    crate::volume::with_grid!(volume, |grid| run(
-        grid, volume, isovalue, options, progress, how
+    // f64 samples too large or too small for refinement's products are
+    // refined on a copy scaled by a power of two (see `magnitude`), once a
+    // refined cell met them (reading the whole volume for its range first
+    // cost a refined 256^3 volume a third more time).
+    let extreme = AtomicBool::new(false);
+    let watch = options.refines() && matches!(volume.samples, crate::volume::Samples::F64(_));
+    if !watch {
+        return crate::volume::with_grid!(volume, |grid| run(
+            grid, volume, isovalue, options, progress, how
+        ));
+    }
+    // The second run reports from where the first stopped (progress never
+    // goes back), and not at all once the caller asked to stop.
+    let (mut last, stopped) = (0.0f64, std::cell::Cell::new(false));
+    let mut progress = |f: f64| {
+        last = last.max(f);
+        let r = progress(last);
+        stopped.set(stopped.get() || r.is_break());
+        r
+    };
+    let first = crate::volume::with_grid!(volume, |grid| run(
+        grid,
+        volume,
+        isovalue,
+        options,
+        &mut progress,
+        How {
+            extreme: Some(&extreme),
+            ..how
+        }
+    ));
+    if !extreme.load(Ordering::Relaxed) || !matches!(first, Err(Error::Aborted)) {
+        return first;
+    }
+    if stopped.get() {
+        return Err(Error::Aborted);
+    }
+    let Some((samples, iso)) = crate::magnitude::scaled_copy(volume, isovalue, &mut progress)?
+    else {
+        // (Only that cell is extreme: refined as it is, unscaled.)
+        return crate::volume::with_grid!(volume, |grid| run(
+            grid,
+            volume,
+            isovalue,
+            options,
+            &mut progress,
+            how
+        ));
+    };
+    let scaled = Volume {
+        samples: crate::volume::Samples::F64(&samples),
+        strides: crate::volume::contiguous_strides(volume.dims),
+        offset: 0,
+        ..*volume
+    };
+    crate::volume::with_grid!(&scaled, |grid| run(
+        grid,
+        &scaled,
+        iso,
+        options,
+        &mut progress,
+        how
     ))
 }
 
@@ -251,6 +317,8 @@ struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     emitted: &'a AtomicU64,
     layers_done: &'a AtomicU64,
     scratch: &'a ScratchPool,
+    /// See [`How::extreme`].
+    extreme: Option<&'a AtomicBool>,
     /// Whether a cell whose refinement stalls is meshed again on sub-cells
     /// (see [`crate::subcells`]).
     subcells: bool,
@@ -605,6 +673,7 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
                 emitted: &emitted,
                 layers_done: &layers_done,
                 scratch: &scratch,
+                extreme: how.extreme,
                 subcells: refine && subcells::allowed(options),
                 poll: (!serial).then_some(&poll),
             };
@@ -952,6 +1021,14 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 }
                 if case == 0 || case == 255 {
                     continue;
+                }
+                if let Some(flag) = sh.extreme {
+                    if crate::magnitude::extreme(&c, sh.iso) {
+                        // The extraction is redone on a scaled copy: stop.
+                        flag.store(true, Ordering::Relaxed);
+                        sh.cancel.store(true, Ordering::Relaxed);
+                        break 'layers;
+                    }
                 }
                 let mut f = [0.0; 8];
                 for q in 0..8 {
@@ -1908,6 +1985,7 @@ mod tests {
             world_points: true,
             executor,
             serial_assembly_triangles: 0,
+            extreme: None,
         };
         extract_in_slabs(v, 0.0, &o, &mut go, how).unwrap()
     }

@@ -63,6 +63,7 @@ mod flat_map;
 mod fork;
 mod helpers;
 mod layers;
+mod magnitude;
 mod memory;
 mod near_bound;
 mod nearest;

@@ -203,7 +203,7 @@ pub(crate) mod test_offset_limit {
 /// `i64::MAX` stands in for the stride that overflows (not 0, which would
 /// read as aliasing): such dims hold more samples than `isize::MAX`, which
 /// [`Volume::validate`] reports before it looks at strides.
-fn contiguous_strides(dims: [u64; 3]) -> [i64; 3] {
+pub(crate) fn contiguous_strides(dims: [u64; 3]) -> [i64; 3] {
     let dx = i64::try_from(dims[0]).ok();
     let dxy = dx.and_then(|dx| dx.checked_mul(i64::try_from(dims[1]).ok()?));
     [1, dx.unwrap_or(i64::MAX), dxy.unwrap_or(i64::MAX)]

@@ -51,7 +51,9 @@ mod common;
 use std::collections::HashMap;
 
 use common::*;
-use precisemc::{extract, Mesh, Options, Rule, Topology, Volume};
+use std::ops::ControlFlow;
+
+use precisemc::{extract, extract_with_progress, Mesh, Options, Rule, Topology, Volume};
 
 // ---------------------------------------------------------------------------
 // Configurations.
@@ -1567,6 +1569,85 @@ fn tiny_and_huge_magnitudes_give_the_topology_of_the_unscaled_data() {
     report(failures);
 }
 
+/// Refinement of `f64` data of extreme magnitude: values past about 1e154
+/// (or below about 1e-160) overflowed (underflowed) refinement's products,
+/// every projection failed and the Marching Cubes triangles stayed; such a
+/// volume is now refined on a copy scaled by a power of two, which gives
+/// the mesh of the data at an ordinary scale, bit for bit (points and
+/// triangles), on either topology.
+#[test]
+fn extreme_magnitudes_are_refined_like_ordinary_ones() {
+    let n = 9usize;
+    let mut v = Vec::with_capacity(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y, z) = (i as f64, j as f64, k as f64);
+                v.push((0.9 * x).sin() + (0.7 * y).cos() * (0.4 * z).sin() - 0.3 * (1.1 * z).cos());
+            }
+        }
+    }
+    let mut failures = Vec::new();
+    for topology in [Topology::Trilinear, Topology::Classic] {
+        for rule in [Rule::A1, Rule::B] {
+            let opts = Options {
+                epsilon: 0.01,
+                max_level: 3,
+                rule,
+                topology,
+                ..Options::default()
+            };
+            let at = |e: i32| {
+                let s: Vec<f64> = v.iter().map(|x| x * 2f64.powi(e)).collect();
+                extract(&Volume::new(&s, [n as u64; 3]), 0.1 * 2f64.powi(e), &opts).unwrap()
+            };
+            // 2^0: not scaled; 2^-1: scaled to the same binade as 2^600.
+            let plain = at(-1);
+            assert!(
+                plain.stats.output_triangles > plain.stats.mc_triangles,
+                "{topology:?} {rule:?}: not refined at an ordinary scale"
+            );
+            for e in [-1000, -600, 600, 1000, 0] {
+                let m = at(e);
+                let same = m.triangles == plain.triangles
+                    && m.points.len() == plain.points.len()
+                    && m.points
+                        .iter()
+                        .zip(&plain.points)
+                        .all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits()));
+                if !same {
+                    failures.push(format!(
+                        "{topology:?} {rule:?} x 2^{e}: {} triangles ({} MC, {} projection failures), want {}",
+                        m.stats.output_triangles,
+                        m.stats.mc_triangles,
+                        m.stats.projection_failures,
+                        plain.stats.output_triangles
+                    ));
+                }
+            }
+        }
+    }
+    // The first run stops at the first extreme cell and the extraction is
+    // redone on the copy: the progress reported never goes back, and a stop
+    // asked during the first run is honoured.
+    let s: Vec<f64> = v.iter().map(|x| x * 2f64.powi(600)).collect();
+    let vol = Volume::new(&s, [n as u64; 3]);
+    let mut seen = Vec::new();
+    let mut record = |f: f64| {
+        seen.push(f);
+        ControlFlow::Continue(())
+    };
+    extract_with_progress(&vol, 0.0, &Options::default(), &mut record).unwrap();
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    assert_eq!(seen.last(), Some(&1.0));
+    let mut stop = |_: f64| ControlFlow::Break(());
+    assert!(matches!(
+        extract_with_progress(&vol, 0.0, &Options::default(), &mut stop),
+        Err(precisemc::Error::Aborted)
+    ));
+    report(failures);
+}
+
 /// Samples (and isovalues) up to +-f64::MAX: the difference of two
 /// values of opposite signs beyond half of it overflows. Where only the
 /// denominator of an edge's crossing ratio overflowed, the ratio came out
@@ -1576,8 +1657,9 @@ fn tiny_and_huge_magnitudes_give_the_topology_of_the_unscaled_data() {
 /// (564 of 3600 meshes, both topologies); where a sample less the
 /// isovalue overflowed, the trilinear topology dropped the cell. Each mesh
 /// must have the shape of the same data and isovalue times 2^-8, and
-/// refined ones (which fall back to the Marching Cubes triangles there:
-/// squared gradients overflow) no edge in more than two triangles.
+/// refined ones (refined on a scaled copy, see
+/// `extreme_magnitudes_are_refined_like_ordinary_ones`) no edge in more
+/// than two triangles.
 #[test]
 fn samples_near_f64_max_give_the_mesh_of_the_scaled_data() {
     let mut failures = Vec::new();
