@@ -1342,10 +1342,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // under A2 and B: up to level 6-8 or 4-6 by the cell's
                 // triangles; the slab's map gets the points its boundary
                 // edges can split into): the slab's buffers, the large
-                // allocations, then
-                // grow here, where a failure is an error, and not while the
-                // patch is emitted, where it would abort the process.
-                // (The leaves reserved for, to check the bound in tests.)
+                // allocations, then grow here, where a failure is an error,
+                // and not while the patch is emitted, where it would abort
+                // the process. (`reserved`: the leaves reserved for, which
+                // a debug assertion checks the patch against.)
                 let mut reserved = usize::MAX;
                 if !count_only {
                     let level = sh.max_level.min(31);
@@ -2250,6 +2250,7 @@ mod tests {
             }
         }
     }
+
     /// Rules A2 and B split a triangle in six, so a patch can have more
     /// leaves than 4^max_level per Marching Cubes triangle: the room
     /// reserved for a cell's patch must cover that (a debug assertion in
