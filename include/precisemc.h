@@ -341,7 +341,8 @@ typedef struct pmc_volume {
      */
     pmc_scalar_type scalar_type;
     /**
-     * Number of samples along x, y and z; each at least 2.
+     * Number of samples along x, y and z; each at least 2 and at most
+     * 2^40.
      */
     uint64_t dims[3];
     /**

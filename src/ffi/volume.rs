@@ -29,7 +29,8 @@ pub struct pmc_volume {
     pub len: u64,
     /// Element type of `data`: one of the `PMC_SCALAR_TYPE_*` values.
     pub scalar_type: pmc_scalar_type,
-    /// Number of samples along x, y and z; each at least 2.
+    /// Number of samples along x, y and z; each at least 2 and at most
+    /// 2^40.
     pub dims: [u64; 3],
     /// Distance in elements (not bytes) between neighbouring samples along
     /// x, y and z. All zero means contiguous with x fastest, i.e.
