@@ -448,10 +448,11 @@ public:
    * Set/Get a cap on the number of output triangles of each contour value;
    * refinement stops at the highest level that fits (the Marching Cubes
    * triangles are always kept, whatever the cap). 0 (the default) means
-   * no cap but the library's own, 250 million. A piece of a distributed run meets the cap on its own, with
-   * its own triangles: two pieces stopping at different levels do not
-   * meet along their cut, and the filter warns when the cap lowered the
-   * level of a piece (raise the cap, or contour the volume in one piece).
+   * no cap but the library's own, 250 million. A piece of a distributed
+   * run meets the cap on its own, with its own triangles: two pieces
+   * stopping at different levels do not meet along their cut, and the
+   * filter warns when the cap lowered the level of a piece (raise the cap,
+   * or contour the volume in one piece).
    */
   vtkSetMacro(MaxTriangles, vtkTypeUInt64);
   vtkGetMacro(MaxTriangles, vtkTypeUInt64);
