@@ -238,11 +238,6 @@ fn extract_in_slabs(
     // cost a refined 256^3 volume a third more time).
     let extreme = AtomicBool::new(false);
     let watch = options.refines() && matches!(volume.samples, crate::volume::Samples::F64(_));
-    if !watch {
-        return crate::volume::with_grid!(volume, |grid| run(
-            grid, volume, isovalue, options, progress, how
-        ));
-    }
     // The second run reports from where the first stopped (progress never
     // goes back), and not at all once the caller asked to stop.
     let (mut last, stopped) = (0.0f64, std::cell::Cell::new(false));
@@ -259,7 +254,7 @@ fn extract_in_slabs(
         options,
         &mut progress,
         How {
-            extreme: Some(&extreme),
+            extreme: watch.then_some(&extreme),
             ..how
         }
     ));

@@ -30,7 +30,13 @@ const LOW: f64 = 8.636168555094445e-78;
 /// `[2^-256, 2^256]` (and is not 0).
 #[inline]
 pub(crate) fn extreme(c: &[f64; 8], iso: f64) -> bool {
-    let m = c.iter().fold(iso.abs(), |m, v| m.max(v.abs()));
+    out_of_range(c.iter().fold(iso.abs(), |m, v| m.max(v.abs())))
+}
+
+/// Whether a largest magnitude `m` lies outside `[2^-256, 2^256]` (and is
+/// not 0).
+#[inline]
+fn out_of_range(m: f64) -> bool {
     m > HIGH || (m < LOW && m > 0.0)
 }
 
@@ -79,7 +85,7 @@ pub(crate) fn scaled_copy(
             }
         }
     }
-    if m == 0.0 || (LOW..=HIGH).contains(&m) {
+    if !out_of_range(m) {
         return Ok(None);
     }
     let [a, b] = factors(m);
