@@ -209,8 +209,8 @@ struct How<'e> {
     /// Meshes of fewer triangles are assembled on the calling thread
     /// ([`SERIAL_ASSEMBLY_TRIANGLES`]; tests use 0).
     serial_assembly_triangles: usize,
-    /// Set when a refined cell's samples (or the isovalue) are of a
-    /// magnitude refinement's products cannot take (see `magnitude`).
+    /// Set when a crossed cell's samples (or the isovalue) are of a
+    /// magnitude the products of contouring cannot take (see `magnitude`).
     extreme: Option<&'e AtomicBool>,
 }
 
@@ -232,12 +232,13 @@ fn extract_in_slabs(
     if options.max_level > MAX_LEVEL_LIMIT {
         return Err(Error::InvalidMaxLevel(options.max_level));
     }
-    // f64 samples too large or too small for refinement's products are
-    // refined on a copy scaled by a power of two (see `magnitude`), once a
-    // refined cell met them (reading the whole volume for its range first
-    // cost a refined 256^3 volume a third more time).
+    // f64 samples too large or too small for the products of refinement,
+    // of an interior vertex's projection and of normals are contoured on a
+    // copy scaled by a power of two (see `magnitude`), once a crossed cell
+    // met them (reading the whole volume for its range first cost a
+    // refined 256^3 volume a third more time).
     let extreme = AtomicBool::new(false);
-    let watch = options.refines() && matches!(volume.samples, crate::volume::Samples::F64(_));
+    let watch = matches!(volume.samples, crate::volume::Samples::F64(_));
     // The second run reports from where the first stopped (progress never
     // goes back), and not at all once the caller asked to stop.
     let (mut last, stopped) = (0.0f64, std::cell::Cell::new(false));
@@ -266,7 +267,7 @@ fn extract_in_slabs(
     }
     let Some((samples, iso)) = crate::magnitude::scaled_copy(volume, isovalue, &mut progress)?
     else {
-        // (Only that cell is extreme: refined as it is, unscaled.)
+        // (Only that cell is extreme: contoured as it is, unscaled.)
         return crate::volume::with_grid!(volume, |grid| run(
             grid,
             volume,

@@ -1,16 +1,19 @@
-//! `f64` samples of extreme magnitude, brought into range for refinement.
+//! `f64` samples of extreme magnitude, brought into range for contouring.
 //!
 //! Refinement squares gradients and multiplies values (a gradient's
 //! length, a cubic's discriminant): in `f64` data whose values reach about
 //! 1e154 the products overflow, and around 1e-160 they underflow, so every
 //! projection failed and the Marching Cubes triangles stayed, unrefined.
-//! Scaling the samples and the isovalue by a power of two changes nothing
-//! else: every crossing, split point and normal is computed from ratios,
-//! which a power of two leaves exact. Such a volume is refined on a scaled
-//! copy: the extraction stops at the first refined cell whose samples (or
-//! the isovalue) lie outside `[2^-256, 2^256]` and starts again on the
-//! copy (reading the whole volume for its range before every refined `f64`
-//! extraction cost a 256^3 volume about a third more time).
+//! Plain Marching Cubes meets the same products where the trilinear
+//! topology projects a fan's interior vertex onto the surface, and normals
+//! take differences that overflow near `f64::MAX`. Scaling the samples and
+//! the isovalue by a power of two changes nothing else: every crossing,
+//! split point and normal is computed from ratios, which a power of two
+//! leaves exact. Such a volume is contoured on a scaled copy: the
+//! extraction stops at the first crossed cell whose samples (or the
+//! isovalue) lie outside `[2^-256, 2^256]` and starts again on the copy
+//! (reading the whole volume for its range before every `f64` extraction
+//! cost a refined 256^3 volume about a third more time).
 
 use std::ops::ControlFlow;
 
@@ -26,7 +29,7 @@ const HIGH: f64 = 1.157920892373162e77;
 const LOW: f64 = 8.636168555094445e-78;
 
 /// Whether a cell's corner samples `c` and the isovalue are of a magnitude
-/// refinement's products cannot take: their largest lies outside
+/// contouring's products cannot take: their largest lies outside
 /// `[2^-256, 2^256]` (and is not 0).
 #[inline]
 pub(crate) fn extreme(c: &[f64; 8], iso: f64) -> bool {
@@ -36,13 +39,13 @@ pub(crate) fn extreme(c: &[f64; 8], iso: f64) -> bool {
 /// Whether a largest magnitude `m` lies outside `[2^-256, 2^256]` (and is
 /// not 0).
 #[inline]
-fn out_of_range(m: f64) -> bool {
+pub(crate) fn out_of_range(m: f64) -> bool {
     m > HIGH || (m < LOW && m > 0.0)
 }
 
 /// The factor (a power of two, as two factors whose product it is, each a
 /// normal number) that brings `m` into `[1, 2)`.
-fn factors(m: f64) -> [f64; 2] {
+pub(crate) fn factors(m: f64) -> [f64; 2] {
     // The binary exponent of m (a subnormal m is first made normal).
     let (m, pre) = if m < f64::MIN_POSITIVE {
         (m * 2f64.powi(256), -256)

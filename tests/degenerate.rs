@@ -1877,3 +1877,76 @@ fn centroid_rules_keep_a_generic_cell_manifold() {
     }
     report(failures);
 }
+
+/// Normals do not depend on the scale of the data. Samples near float64's
+/// largest values overflowed the gradient's differences (1e308 - -1e308),
+/// which left every normal (0, 0, 0); the direction is now the one of the
+/// data at an ordinary scale, bit for bit, in both normal modes, refined
+/// or not, from 2^-1000 to values whose differences pass f64::MAX.
+/// Plain Marching Cubes and normals do not depend on the scale of the
+/// data either: the mesh and normals of an `f64` volume times 2^e are
+/// those at an ordinary scale, bit for bit, in both normal modes and
+/// topologies, refined or not, from 2^-1000 to samples whose differences
+/// pass f64::MAX. Before, samples beyond about 1e154 left an interior
+/// vertex off its projection (its gradient's length overflowed: 0.12
+/// cells away here), and near f64::MAX the gradients' differences
+/// overflowed (half the normals (0, 0, 0)).
+#[test]
+fn plain_meshes_and_normals_do_not_depend_on_the_scale_of_the_data() {
+    use precisemc::NormalMode;
+    let n = 9usize;
+    let mut v = Vec::with_capacity(n * n * n);
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y, z) = (i as f64, j as f64, k as f64);
+                v.push(1.9 * (2.3 * x + 1.7 * y + 1.1 * z).sin() * (0.5 + 0.5 * (0.3 * y).cos()));
+            }
+        }
+    }
+    // At 2^1023 the samples stay below f64::MAX but the differences
+    // between neighbours of opposite signs overflow.
+    let big = |x: f64| x * 2f64.powi(1023);
+    assert!(v.iter().all(|x| big(*x).is_finite()));
+    assert!(v.windows(2).any(|w| (big(w[1]) - big(w[0])).is_infinite()));
+    let mut failures = Vec::new();
+    let modes = [NormalMode::Gradient, NormalMode::CentralDifference];
+    for (normals, topology) in modes.into_iter().zip([Topology::Trilinear, Topology::Classic]) {
+        for max_level in [0, 3] {
+            let opts = Options {
+                epsilon: 0.01,
+                max_level,
+                normals,
+                topology,
+                ..Options::default()
+            };
+            let at = |e: i32| {
+                let s: Vec<f64> = v.iter().map(|x| x * 2f64.powi(e)).collect();
+                extract(&Volume::new(&s, [n as u64; 3]), 0.1 * 2f64.powi(e), &opts).unwrap()
+            };
+            let plain = at(0);
+            assert!(plain.normals.len() == plain.points.len() && !plain.points.is_empty());
+            assert!(plain.normals.iter().all(|m| m.iter().any(|c| *c != 0.0)));
+            for e in [-1000, 600, 1000, 1023] {
+                let m = at(e);
+                let bits = |p: &[f32; 3]| p.map(f32::to_bits);
+                let same_points = m.triangles == plain.triangles
+                    && m.points.len() == plain.points.len()
+                    && m.points
+                        .iter()
+                        .zip(&plain.points)
+                        .all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits()));
+                let same_normals = m.normals.iter().map(bits).eq(plain.normals.iter().map(bits));
+                if !(same_points && same_normals) {
+                    let zero = m.normals.iter().filter(|m| m.iter().all(|c| *c == 0.0)).count();
+                    failures.push(format!(
+                        "{normals:?} {topology:?} level {max_level} x 2^{e}: same points and \
+                         triangles {same_points}, same normals {same_normals} ({zero} of {} zero)",
+                        m.normals.len()
+                    ));
+                }
+            }
+        }
+    }
+    report(failures);
+}

@@ -560,27 +560,24 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
     }
 }
 
-/// Values beyond this magnitude are brought down by [`HEADROOM_SCALE`]
-/// before a cell's patch is worked out (see [`with_headroom`]).
-const HEADROOM_LIMIT: f64 = 8.98846567431158e299; // 2^1000
-
-/// An exact power of two, 2^-24.
-const HEADROOM_SCALE: f64 = 5.960464477539063e-8;
-
-/// `f` times [`HEADROOM_SCALE`] when some value exceeds
-/// [`HEADROOM_LIMIT`], else `None`. Differences of values near
-/// `f64::MAX` overflow (the slices' value changes of [`regions`], the
-/// edges' [`crossing`]s, the gradients of [`interior_point`]): a cell of
-/// such values got the topology of other data. Scaling by a power of two
-/// changes no crossing, decision or root; a value that the scaling would
-/// round to zero keeps its sign as the least subnormal of that sign (its
-/// corner's side must not change).
+/// `f` times a power of two that brings its largest magnitude into
+/// `[1, 2)`, when that magnitude lies outside `[2^-256, 2^256]` (and is not
+/// 0); else `None`. Differences of values near `f64::MAX` overflow (the
+/// slices' value changes of [`regions`], the edges' [`crossing`]s), and
+/// squares of values beyond about 1e154 or below about 1e-160 overflow or
+/// underflow (the gradient's length where [`interior_point`] projects): a
+/// cell of such values got the topology, or the interior vertex, of other
+/// data. Scaling by a power of two changes no crossing, decision or root;
+/// a value that the scaling would round to zero keeps its sign as the
+/// least subnormal of that sign (its corner's side must not change).
 fn with_headroom(f: &[f64; 8]) -> Option<[f64; 8]> {
-    if f.iter().all(|v| v.abs() <= HEADROOM_LIMIT) {
+    let m = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !crate::magnitude::out_of_range(m) {
         return None;
     }
+    let [a, b] = crate::magnitude::factors(m);
     Some(f.map(|v| {
-        let w = v * HEADROOM_SCALE;
+        let w = v * a * b;
         if w == 0.0 && v != 0.0 {
             f64::from_bits(1).copysign(v)
         } else {
@@ -947,6 +944,44 @@ mod tests {
             }
         }
         assert!(loops_seen > 254 * 40);
+    }
+
+    #[test]
+    fn patches_do_not_change_with_the_scale_of_the_data() {
+        // A fan's interior vertex is projected along the gradient, whose
+        // length overflowed beyond about 1e154 (and underflowed below
+        // about 1e-160): the vertex took the fallback's point instead, a
+        // tenth of a cell away. Every patch, interior vertices included,
+        // is now the one at scale 1, bit for bit.
+        let mut rng = crate::test_rng::XorShift(0xfa25);
+        let mut fans = 0;
+        for _ in 0..20_000 {
+            let f: [f64; 8] = std::array::from_fn(|_| {
+                let m = 0.05 + rng.unit();
+                if rng.below(2) == 0 {
+                    m
+                } else {
+                    -m
+                }
+            });
+            for pinch in [false, true] {
+                let (mut want, mut want_extra) = (Vec::new(), Vec::new());
+                triangles(&f, pinch, &mut want, &mut want_extra);
+                fans += !want_extra.is_empty() as usize;
+                let bits = |x: &Vec<[f64; 3]>| -> Vec<[u64; 3]> {
+                    x.iter().map(|p| p.map(f64::to_bits)).collect()
+                };
+                for e in [-1000, -600, -300, 300, 600, 1000, 1022] {
+                    let s = 2f64.powi(e);
+                    let g = f.map(|v| v * s);
+                    let (mut got, mut got_extra) = (Vec::new(), Vec::new());
+                    triangles(&g, pinch, &mut got, &mut got_extra);
+                    assert_eq!(got, want, "{f:?} x 2^{e}");
+                    assert_eq!(bits(&got_extra), bits(&want_extra), "{f:?} x 2^{e}");
+                }
+            }
+        }
+        assert!(fans > 200, "{fans} fans with an interior vertex");
     }
 
     #[test]
