@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cfloat>
+#include <cmath>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -325,6 +327,13 @@ void CheckWritable(const std::string& given, const std::string& what)
     throw Error(
       "cannot write " + what + " " + named + ": " + std::strerror(errno));
   }
+  // A name the file system cannot hold fails only at the final rename,
+  // after the other outputs of the run are in place.
+  const long nameMax = pathconf(dir.c_str(), _PC_NAME_MAX);
+  if (FileNameOf(path).size() > static_cast<size_t>(nameMax > 0 ? nameMax : NAME_MAX))
+  {
+    throw Error("cannot write " + what + " " + named + ": " + std::strerror(ENAMETOOLONG));
+  }
 }
 
 std::string CanonicalPath(const std::string& given)
@@ -375,6 +384,13 @@ std::string BestError(const std::vector<std::string>& errors)
 
 void CommitFile(const std::string& tmp, const std::string& path)
 {
+  // A file replaced keeps its permissions, as with the shell's '>' (the
+  // temporary has the default ones).
+  struct stat existing;
+  if (stat(path.c_str(), &existing) == 0 && S_ISREG(existing.st_mode))
+  {
+    chmod(tmp.c_str(), existing.st_mode & 07777);
+  }
   if (std::rename(tmp.c_str(), path.c_str()) != 0)
   {
     int err = errno;
@@ -470,8 +486,28 @@ std::string Fixed(double value, int decimals)
 
 std::string General(double value)
 {
+  // Six significant digits, or as many more as it takes to tell the value
+  // from its neighbours (a float's, when the value is one: a float array's
+  // range reads 0.1, not 0.100000001490116); "1e+06" for 1000000.25 made
+  // an isovalue outside the range print inside it.
+  const bool isFloat = std::isfinite(value) && std::fabs(value) <= FLT_MAX &&
+    static_cast<double>(static_cast<float>(value)) == value;
   char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.6g", value);
+  if (value == std::floor(value) && std::fabs(value) < 1e15)
+  {
+    // Whole numbers in full ("1000000" beside "1000000.25", not "1e+06").
+    std::snprintf(buf, sizeof(buf), "%.0f", value);
+    return buf;
+  }
+  for (int digits = 6; digits <= 17; ++digits)
+  {
+    std::snprintf(buf, sizeof(buf), "%.*g", digits, value);
+    const double back = std::strtod(buf, nullptr);
+    if (isFloat ? static_cast<float>(back) == static_cast<float>(value) : back == value)
+    {
+      break;
+    }
+  }
   return buf;
 }
 

@@ -132,7 +132,9 @@ private:
 // "1234567" -> "1 234 567".
 std::string Grouped(unsigned long long value);
 
-// Number formatting with a fixed number of decimals or %g.
+// Number formatting with a fixed number of decimals, or as %g with six
+// significant digits or more: enough to read the value back (as a float
+// when it is one).
 std::string Fixed(double value, int decimals);
 std::string General(double value);
 

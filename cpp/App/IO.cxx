@@ -18,6 +18,8 @@
 #include "vtkImageData.h"
 #include "vtkImageReader2.h"
 #include "vtkInformation.h"
+#include "vtkMatrix4x4.h"
+#include "vtkNIFTIImageHeader.h"
 #include "vtkMetaImageReader.h"
 #include "vtkNew.h"
 #include "vtkNIFTIImageReader.h"
@@ -34,8 +36,10 @@
 #include "vtkXMLDataElement.h"
 #include "vtkXMLImageDataReader.h"
 #include "vtkXMLPolyDataWriter.h"
+#include "vtk_zlib.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -192,9 +196,18 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
 // or missing, or not the number of sizes (it read past the end of its
 // image, or a volume the header does not describe), and a 4D header whose
 // first axis is spatial (read as vector components). Returns the header's
-// sizes, which the caller compares with what the reader made of them.
-std::vector<long long> CheckNrrdHeader(const std::string& path)
+// sizes, which the caller compares with what the reader made of them, and
+// its space directions and origin (see NrrdFrame).
+struct NrrdHeader
 {
+  std::vector<long long> sizes;
+  std::string directions; // the "space directions" value, "" if absent
+  std::string origin;     // the "space origin" value, "" if absent
+};
+
+NrrdHeader CheckNrrdHeader(const std::string& path)
+{
+  NrrdHeader header;
   std::ifstream in(path, std::ios::binary);
   std::string line;
   bool ascii = false;
@@ -252,6 +265,11 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
       // closing parenthesis.
       std::string v = value(17);
       firstDirection = v.compare(0, 4, "none") == 0 ? "none" : v.substr(0, v.find(')') + 1);
+      header.directions = v;
+    }
+    if (lower.compare(0, 13, "space origin:") == 0)
+    {
+      header.origin = value(13);
     }
     if (lower.compare(0, 6, "sizes:") == 0)
     {
@@ -313,7 +331,208 @@ std::vector<long long> CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, misread + "a spatial axis (space direction " + firstDirection + ")" + instead);
   }
-  return sizes;
+  header.sizes = sizes;
+  return header;
+}
+
+// The vectors "(x,y,z)" of a NRRD field value, in order, "none" entries
+// left out; throws when an entry is neither.
+std::vector<std::array<double, 3>> NrrdVectors(
+  const std::string& path, const std::string& field, const std::string& value)
+{
+  std::vector<std::array<double, 3>> out;
+  size_t at = 0;
+  const auto bad = [&]() {
+    Unreadable(path, "its " + field + " (" + value + ") are not vectors of three numbers");
+  };
+  while ((at = value.find_first_not_of(" \t", at)) != std::string::npos)
+  {
+    if (value.compare(at, 4, "none") == 0)
+    {
+      at += 4;
+      continue;
+    }
+    const size_t close = value.find(')', at);
+    if (value[at] != '(' || close == std::string::npos)
+    {
+      bad();
+    }
+    std::array<double, 3> v{};
+    std::string inner = value.substr(at + 1, close - at - 1);
+    std::replace(inner.begin(), inner.end(), ',', ' ');
+    std::istringstream numbers(inner);
+    std::string extra;
+    if (!(numbers >> v[0] >> v[1] >> v[2]) || (numbers >> extra) || !std::isfinite(v[0]) ||
+      !std::isfinite(v[1]) || !std::isfinite(v[2]))
+    {
+      bad();
+    }
+    out.push_back(v);
+    at = close + 1;
+  }
+  return out;
+}
+
+// Places `volume` in the world frame its header gives: a world point is
+// origin + direction x (spacing * index), `direction` row-major. Throws
+// when the frame cannot be an image's (a singular direction).
+void SetFrame(vtkImageData* volume, const std::string& path, const double direction[9],
+  const double spacing[3], const double origin[3])
+{
+  const double* d = direction;
+  const double det = d[0] * (d[4] * d[8] - d[5] * d[7]) - d[1] * (d[3] * d[8] - d[5] * d[6]) +
+    d[2] * (d[3] * d[7] - d[4] * d[6]);
+  if (!std::isfinite(det) || std::fabs(det) < 1e-6)
+  {
+    Unreadable(path, "its header's orientation matrix is singular");
+  }
+  volume->SetDirectionMatrix(direction);
+  volume->SetSpacing(spacing[0], spacing[1], spacing[2]);
+  volume->SetOrigin(origin[0], origin[1], origin[2]);
+}
+
+// NRRD: each spatial axis's space direction is its step in the world (the
+// reader kept only their lengths, as spacing), and the space origin is the
+// world position of the first sample. Coordinates are the file's space's
+// own (no change between LPS and RAS).
+void ApplyNrrdFrame(vtkImageData* volume, const std::string& path, const NrrdHeader& header)
+{
+  if (header.directions.empty() && header.origin.empty())
+  {
+    return;
+  }
+  double direction[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+  double spacing[3];
+  double origin[3];
+  volume->GetSpacing(spacing);
+  volume->GetOrigin(origin);
+  if (!header.directions.empty())
+  {
+    const auto axes = NrrdVectors(path, "space directions", header.directions);
+    if (axes.size() != 3)
+    {
+      Unreadable(path, "its space directions (" + header.directions + ") give " +
+          std::to_string(axes.size()) + " spatial axes, not 3");
+    }
+    for (int a = 0; a < 3; ++a)
+    {
+      const double length = std::sqrt(
+        axes[a][0] * axes[a][0] + axes[a][1] * axes[a][1] + axes[a][2] * axes[a][2]);
+      if (!(length > 0.0) || !std::isfinite(length))
+      {
+        Unreadable(path, "its space direction of axis " + std::to_string(a) + " has no length");
+      }
+      spacing[a] = length;
+      for (int r = 0; r < 3; ++r)
+      {
+        direction[3 * r + a] = axes[a][r] / length;
+      }
+    }
+  }
+  if (!header.origin.empty())
+  {
+    const auto o = NrrdVectors(path, "space origin", header.origin);
+    if (o.size() != 1)
+    {
+      Unreadable(path, "its space origin (" + header.origin + ") is not one vector");
+    }
+    std::copy(o[0].begin(), o[0].end(), origin);
+  }
+  SetFrame(volume, path, direction, spacing, origin);
+}
+
+// MetaImage: TransformMatrix (or its other names, Rotation and
+// Orientation) holds each axis's direction in turn, three numbers an axis
+// (ITK's convention); VTK 9.1's reader reads the Offset as the origin but
+// leaves the matrix out.
+std::string FileHead(const std::string& path, size_t bytes);
+
+void ApplyMetaImageFrame(vtkImageData* volume, const std::string& path)
+{
+  std::istringstream header(FileHead(path, 1 << 16));
+  std::string line;
+  while (std::getline(header, line))
+  {
+    const size_t eq = line.find('=');
+    if (eq == std::string::npos)
+    {
+      continue;
+    }
+    std::string key = line.substr(0, eq);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    key.erase(0, key.find_first_not_of(" \t"));
+    if (key == "ElementDataFile")
+    {
+      break; // the end of the header
+    }
+    if (key != "TransformMatrix" && key != "Rotation" && key != "Orientation")
+    {
+      continue;
+    }
+    std::istringstream numbers(line.substr(eq + 1));
+    double m[9];
+    std::string extra;
+    bool good = true;
+    for (double& x : m)
+    {
+      good = good && (numbers >> x) && std::isfinite(x);
+    }
+    if (!good || (numbers >> extra))
+    {
+      Unreadable(path, "its " + key + " is not nine numbers");
+    }
+    double direction[9];
+    for (int a = 0; a < 3; ++a)
+    {
+      for (int r = 0; r < 3; ++r)
+      {
+        direction[3 * r + a] = m[3 * a + r];
+      }
+    }
+    double spacing[3];
+    double origin[3];
+    volume->GetSpacing(spacing);
+    volume->GetOrigin(origin);
+    SetFrame(volume, path, direction, spacing, origin);
+    return;
+  }
+}
+
+// NIfTI: the sform (or else the qform) maps VTK's data coordinates
+// (origin + spacing * index, as the reader laid the samples out) to the
+// world; the reader leaves it out of the image.
+void ApplyNiftiFrame(vtkImageData* volume, const std::string& path, vtkNIFTIImageReader* reader)
+{
+  vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
+  vtkMatrix4x4* m = nullptr;
+  if (header && header->GetSFormCode() > 0)
+  {
+    m = reader->GetSFormMatrix();
+  }
+  else if (header && header->GetQFormCode() > 0)
+  {
+    m = reader->GetQFormMatrix();
+  }
+  if (!m)
+  {
+    return;
+  }
+  double direction[9];
+  double spacing[3];
+  double local[3];
+  double origin[3];
+  volume->GetSpacing(spacing);
+  volume->GetOrigin(local);
+  for (int r = 0; r < 3; ++r)
+  {
+    origin[r] = m->GetElement(r, 3);
+    for (int c = 0; c < 3; ++c)
+    {
+      direction[3 * r + c] = m->GetElement(r, c);
+      origin[r] += m->GetElement(r, c) * local[c];
+    }
+  }
+  SetFrame(volume, path, direction, spacing, origin);
 }
 
 template <class In, class Out>
@@ -916,6 +1135,137 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
   return "";
 }
 
+// A compressed MetaImage whose data inflates to fewer bytes than its
+// DimSize declares: VTK 9.1's reader fills the rest with zeros and reports
+// nothing (a header claiming 1000^3 samples took 9 s to read a few KB of
+// data and zeros). Checked before the read, by inflating the data once;
+// only the layouts the reader reads from one stream (LOCAL, or one file
+// named by ElementDataFile) and element types of a known size.
+void CheckMetaImageCompressedSize(const std::string& path)
+{
+  const std::string head = FileHead(path, 1 << 16);
+  std::istringstream header(head);
+  std::string line;
+  bool compressed = false;
+  std::vector<long long> dims;
+  long long channels = 1;
+  int elementSize = 0;
+  std::string dataFile;
+  size_t dataOffset = 0; // of LOCAL data in the header's file
+  size_t consumed = 0;
+  while (std::getline(header, line))
+  {
+    consumed += line.size() + 1;
+    const size_t eq = line.find('=');
+    if (eq == std::string::npos)
+    {
+      continue;
+    }
+    std::string key = line.substr(0, eq);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    key.erase(0, key.find_first_not_of(" \t"));
+    std::string value = line.substr(eq + 1);
+    value.erase(0, value.find_first_not_of(" \t"));
+    value.erase(value.find_last_not_of(" \t\r") + 1);
+    std::istringstream values(value);
+    if (key == "CompressedData")
+    {
+      compressed = value == "True" || value == "true";
+    }
+    else if (key == "DimSize")
+    {
+      long long n;
+      while (values >> n)
+      {
+        dims.push_back(n);
+      }
+    }
+    else if (key == "ElementNumberOfChannels")
+    {
+      values >> channels;
+    }
+    else if (key == "ElementType")
+    {
+      static const std::pair<const char*, int> sizes[] = { { "MET_CHAR", 1 }, { "MET_UCHAR", 1 },
+        { "MET_SHORT", 2 }, { "MET_USHORT", 2 }, { "MET_INT", 4 }, { "MET_UINT", 4 },
+        { "MET_FLOAT", 4 }, { "MET_LONG_LONG", 8 }, { "MET_ULONG_LONG", 8 },
+        { "MET_DOUBLE", 8 } };
+      for (const auto& s : sizes)
+      {
+        elementSize = value == s.first ? s.second : elementSize;
+      }
+    }
+    else if (key == "ElementDataFile")
+    {
+      dataFile = value;
+      dataOffset = consumed;
+      break; // the end of the header
+    }
+  }
+  if (!compressed || elementSize == 0 || dims.empty() || channels < 1 || dataFile.empty() ||
+    dataFile == "LIST" || dataFile.find('%') != std::string::npos ||
+    dataFile.find(' ') != std::string::npos)
+  {
+    return;
+  }
+  unsigned long long want = static_cast<unsigned long long>(elementSize) * channels;
+  for (long long n : dims)
+  {
+    if (n < 1 || want > (1ULL << 62) / static_cast<unsigned long long>(n))
+    {
+      return; // the declared-size check speaks of such headers
+    }
+    want *= static_cast<unsigned long long>(n);
+  }
+  const bool local = dataFile == "LOCAL";
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash);
+  const std::string file = local ? path : (dataFile[0] == '/' ? dataFile : dir + "/" + dataFile);
+  std::ifstream in(file, std::ios::binary);
+  if (!in)
+  {
+    return; // the reader names a missing data file
+  }
+  in.seekg(static_cast<std::streamoff>(local ? dataOffset : 0));
+  z_stream z = {};
+  if (inflateInit(&z) != Z_OK)
+  {
+    return;
+  }
+  std::vector<unsigned char> input(1 << 16);
+  std::vector<unsigned char> output(1 << 16);
+  unsigned long long got = 0;
+  int status = Z_OK;
+  while (status != Z_STREAM_END && got < want)
+  {
+    if (z.avail_in == 0)
+    {
+      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+      z.next_in = input.data();
+      z.avail_in = static_cast<uInt>(in.gcount());
+      if (z.avail_in == 0)
+      {
+        break; // the data ends without the stream's end
+      }
+    }
+    z.next_out = output.data();
+    z.avail_out = static_cast<uInt>(output.size());
+    status = inflate(&z, Z_NO_FLUSH);
+    got += output.size() - z.avail_out;
+    if (status != Z_OK && status != Z_STREAM_END)
+    {
+      break;
+    }
+  }
+  inflateEnd(&z);
+  if (got < want)
+  {
+    Unreadable(path, "its compressed data holds " + std::to_string(got) + " bytes where its "
+        "DimSize declares " + std::to_string(want) + " (VTK's reader would fill the rest with "
+        "zeros)");
+  }
+}
+
 // The reader for a file, after a cheap look at its header when the reader
 // offers one, so that a file of another format is reported as such.
 vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
@@ -982,17 +1332,19 @@ bool IsNrrd(const std::string& path)
 
 namespace
 {
-vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path);
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
+  const std::string& path, std::vector<std::string>& warnings);
 }
 
 // A failure inside a reader (an allocation of a size the header made up, a
 // C++ exception from VTK) is reported as a failure to read that file, with
 // its name, not as a bare "out of memory" or library message.
-vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
+vtkSmartPointer<vtkImageData> ReadVolume(
+  const std::string& path, std::vector<std::string>& warnings)
 {
   try
   {
-    return ReadVolumeUnchecked(path);
+    return ReadVolumeUnchecked(path, warnings);
   }
   catch (const Error&)
   {
@@ -1011,10 +1363,11 @@ vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
 
 namespace
 {
-vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
+  const std::string& path, std::vector<std::string>& warnings)
 {
   vtkSmartPointer<vtkAlgorithm> reader;
-  std::vector<long long> nrrdSizes;
+  NrrdHeader nrrd;
   if (IsDirectory(path))
   {
     auto dicom = vtkSmartPointer<vtkSliceListingDICOMReader>::New();
@@ -1023,11 +1376,28 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
   }
   else if (IsRegularFile(path))
   {
+    // What keeps the file from being read at all, named as such (a reader
+    // would blame its format).
+    std::FILE* probe = std::fopen(path.c_str(), "rb");
+    if (!probe)
+    {
+      Unreadable(path, std::strerror(errno));
+    }
+    const bool empty = std::fgetc(probe) == EOF;
+    std::fclose(probe);
+    if (empty)
+    {
+      Unreadable(path, "the file is empty");
+    }
     if (IsNrrd(path))
     {
-      nrrdSizes = CheckNrrdHeader(path);
+      nrrd = CheckNrrdHeader(path);
     }
     reader = ReaderFor(path, Extension(path));
+    if (Extension(path) == ".mha" || Extension(path) == ".mhd")
+    {
+      CheckMetaImageCompressedSize(path);
+    }
     if (Extension(path) == ".vti")
     {
       CheckVtiGeometry(path);
@@ -1089,6 +1459,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
   }
   int dims[3];
   image->GetDimensions(dims);
+  const std::vector<long long>& nrrdSizes = nrrd.sizes;
   if (!nrrdSizes.empty())
   {
     // Dimension 3: the sizes are the samples, one component. VTK 9.1's
@@ -1157,7 +1528,30 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path)
   volume->ShallowCopy(image);
   if (auto* nifti = vtkNIFTIImageReader::SafeDownCast(reader))
   {
+    if (nifti->GetTimeDimension() > 1)
+    {
+      // The reader gives the first time point only (with TimeAsVector
+      // off), without a word.
+      Unreadable(path, "it holds " + std::to_string(nifti->GetTimeDimension()) +
+          " time points (a 4D series) and VTK's NIfTI reader gives the first only (write one "
+          "file per 3D volume)");
+    }
     ApplyNiftiScaling(nifti, volume);
+    ApplyNiftiFrame(volume, path, nifti);
+  }
+  if (!nrrdSizes.empty())
+  {
+    ApplyNrrdFrame(volume, path, nrrd);
+  }
+  if (vtkMetaImageReader::SafeDownCast(reader))
+  {
+    ApplyMetaImageFrame(volume, path);
+  }
+  if (IsDirectory(path))
+  {
+    warnings.push_back("the series' patient position and orientation are not applied (VTK's "
+                       "DICOM reader does not give them): the surface is in the image's own "
+                       "frame, at its pixel and slice spacing");
   }
   return volume;
 }

@@ -6,6 +6,7 @@
 #include "vtkSmartPointer.h"
 
 #include <string>
+#include <vector>
 
 class vtkImageData;
 class vtkPolyData;
@@ -17,8 +18,11 @@ namespace pmcapp
 // first point array): .vti, .vtk, .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr,
 // or a DICOM series when path is a directory. Throws pmcapp::Error with
 // the reason (missing, unknown format, unreadable, not a 3D volume, no
-// scalars).
-vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path);
+// scalars). What the volume's file gives but the tool cannot apply is
+// appended to `warnings`, one sentence each (a DICOM series' patient
+// position and orientation).
+vtkSmartPointer<vtkImageData> ReadVolume(
+  const std::string& path, std::vector<std::string>& warnings);
 
 // "48x48x20, unsigned char" for the table.
 std::string DescribeVolume(vtkImageData* volume);

@@ -158,7 +158,12 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
   {
     DataSet d;
     Clock::time_point start = Clock::now();
-    d.Volume = pmcapp::ReadVolume(o.Input);
+    std::vector<std::string> warnings;
+    d.Volume = pmcapp::ReadVolume(o.Input, warnings);
+    for (const std::string& w : o.Quiet ? std::vector<std::string>() : warnings)
+    {
+      std::cerr << "precisemc: warning: '" << o.Input << "': " << w << "\n";
+    }
     d.LoadSeconds = SecondsSince(start);
     d.LoadPhase = "read";
     d.Name = BaseName(o.Input);

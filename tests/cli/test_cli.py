@@ -62,10 +62,20 @@ def run(*args, env=None, cwd=None):
                           cwd=cwd, timeout=TIMEOUT)
 
 
-def ok(*args, **kw):
+DICOM_FRAME_WARNING = "the series' patient position and orientation are not applied"
+
+
+def ok(*args, warns=None, **kw):
+    """A successful run: status 0 and nothing on stderr, or with `warns` one
+    line 'precisemc: warning: ...' holding it."""
     r = run(*args, **kw)
     expect(r.returncode == 0, f"exit status {r.returncode}, stderr: {r.stderr.strip()!r}")
-    expect(r.stderr == "", f"unexpected stderr on success: {r.stderr!r}")
+    if warns is None:
+        expect(r.stderr == "", f"unexpected stderr on success: {r.stderr!r}")
+    else:
+        lines = r.stderr.splitlines()
+        expect(len(lines) == 1 and lines[0].startswith("precisemc: warning: ") and
+               warns in lines[0], f"want one warning with {warns!r}, stderr: {r.stderr!r}")
     return r
 
 
@@ -318,7 +328,8 @@ def input_dicom_series():
     series = os.path.join(d, "series")
     write_series(series, np.round(v * 10.0).astype(np.int16), spacing)
     out = os.path.join(d, "dicom.vtp")
-    r = ok(series, "-o", out)
+    r = ok(series, "-o", out, warns=DICOM_FRAME_WARNING)
+    ok(series, "-q", "-o", out)  # not with -q
     expect("series: 24x20x18, short" in r.stdout, f"table header:\n{r.stdout}")
     expect(re.search(r"^isovalue 495\.5: the middle", r.stdout, re.M), r.stdout)
     refined = table_value(r.stdout, "output triangles")
@@ -428,13 +439,15 @@ def dicom_slice_cut_short_in_its_pixel_data_is_refused():
     implicit = os.path.join(d, "implicit")
     write_series(explicit, samples, spacing)
     write_series(implicit, samples, spacing, syntax=IMPLICIT)
-    a = ok(explicit, "-v", "400", "-o", os.path.join(d, "explicit.vtp"))
-    b = ok(implicit, "-v", "400", "-o", os.path.join(d, "implicit.vtp"))
+    a = ok(explicit, "-v", "400", "-o", os.path.join(d, "explicit.vtp"),
+           warns=DICOM_FRAME_WARNING)
+    b = ok(implicit, "-v", "400", "-o", os.path.join(d, "implicit.vtp"),
+           warns=DICOM_FRAME_WARNING)
     expect(table_value(a.stdout, "output triangles") == table_value(b.stdout, "output triangles"),
            f"implicit VR read differently:\n{a.stdout}\n{b.stdout}")
     odd = os.path.join(d, "odd-8-bit")
     write_series(odd, (samples[:, :19, :23] // 4).astype(np.uint8), spacing)
-    r = ok(odd, "-v", "100", "-o", os.path.join(d, "odd.vtp"))
+    r = ok(odd, "-v", "100", "-o", os.path.join(d, "odd.vtp"), warns=DICOM_FRAME_WARNING)
     expect("odd-8-bit: 23x19x18, unsigned char" in r.stdout, f"table header:\n{r.stdout}")
 
 
@@ -630,6 +643,25 @@ def error_isovalue_outside_range():
     # One bad value among good ones, and for one sample of "all": nothing written.
     expect_error(["--sample", "all", "-v", "50", "-o", out], "outside the scalar range",
                  outputs=[out] + [os.path.join(d, f"o-{n}.vtp") for n in ("tube", "atoms", "ml")])
+    # The message tells the values apart: six digits printed 1000000.3
+    # outside [1000000, 1000000.25] as "1e+06 ... [1e+06, 1e+06]". A float
+    # array's range reads as the float it is (0.1, not 0.100000001490116).
+    dims, spacing, origin, v = blob_volume()
+    for values, iso, want in (
+            (1e6 + 0.25 * v / v.max(), "1000000.3", "isovalue 1000000.3 is outside the scalar "
+                                                    "range [1000000, 1000000.25]"),
+            (0.1 + 0.0 * v, "0.5", "isovalue 0.5 is outside the scalar range [0.1, 0.1]")):
+        path = os.path.join(d, "tight.vti")
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(density_image(values.astype(np.float32), dims, spacing, origin))
+        w.Write()
+        expect_error([path, "-v", iso, "-o", out], want, outputs=[out])
+    # An empty file is called empty, whatever its extension.
+    for ext in ("vti", "nrrd", "nii"):
+        empty = os.path.join(d, "empty." + ext)
+        open(empty, "w").close()
+        expect_error([empty, "-o", out], "the file is empty", outputs=[out])
 
 
 @check
@@ -1093,6 +1125,13 @@ def outputs_are_written_through_symbolic_links():
         expect(read_surface(target).GetNumberOfPolys() > 1000, f"{link}: the target not written")
         expect(sorted(os.listdir(os.path.join(d, "real"))) == ["s.vtp"],
                f"left behind: {os.listdir(os.path.join(d, 'real'))}")
+    # A file replaced keeps its permissions (through a link too), as with
+    # '>'; they were the temporary's (0644 under umask 022).
+    for mode in (0o600, 0o640, 0o755):
+        os.chmod(target, mode)
+        ok("--sample", "tube", "--epsilon", "0", "-q", "-o", os.path.join(d, "chain.vtp"))
+        got = os.stat(target).st_mode & 0o7777
+        expect(got == mode, f"permissions {oct(got)} after the write, want {oct(mode)}")
     # A dangling link: its target is created.
     os.remove(target)
     ok("--sample", "tube", "--epsilon", "0", "-q", "-o", os.path.join(d, "chain.vtp"))
@@ -1119,6 +1158,12 @@ def long_output_names_and_interrupts():
     long_name = os.path.join(d, "x" * 250 + ".vtp")
     ok("--sample", "tube", "--epsilon", "0", "-q", "-o", long_name)
     expect(read_surface(long_name).GetNumberOfPolys() > 1000, "the long name was not written")
+    # One of several outputs whose name is too long (S-atoms.vtp, 256
+    # characters): refused before any work, nothing written (S-tube.vtp
+    # was left behind, the run failing at the last rename).
+    stem = os.path.join(d, "s" * 246)
+    expect_error(["--sample", "all", "-q", "-o", stem + ".vtp"], "File name too long",
+                 outputs=[stem + "-tube.vtp", stem + "-ml.vtp"])
     out = os.path.join(d, "run.vtp")
     environment = dict(os.environ)
     environment.pop("DISPLAY", None)
@@ -1185,6 +1230,149 @@ def nifti_scaling_is_applied():
     v = vtk_to_numpy(image.GetPointData().GetScalars())
     expect(abs(lo - (2 * float(v.min()) - 100)) < 1e-3 and abs(hi - (2 * float(v.max()) - 100)) < 1e-3,
            f"range [{lo}, {hi}] is not the scaled one")
+
+
+@check
+def compressed_metaimage_shorter_than_its_header_is_refused():
+    """A compressed MetaImage (.mha, or .mhd with its .zraw) whose DimSize
+    declares more slices than its data holds: VTK's reader filled the
+    missing slices with zeros, exit status 0. Refused with the byte
+    counts; the file as written reads, and gives the uncompressed file's
+    surface."""
+    d = fresh_dir("mha-compressed")
+    image = blob_image()
+    dims = image.GetDimensions()
+    surfaces = {}
+    for ext in ("mha", "mhd"):
+        for compressed in (False, True):
+            path = os.path.join(d, f"blob-{int(compressed)}.{ext}")
+            w = vtkMetaImageWriter()
+            w.SetFileName(path)
+            if ext == "mhd":
+                w.SetRAWFileName(os.path.join(d, f"blob-{int(compressed)}.{'zraw' if compressed else 'raw'}"))
+            w.SetCompression(compressed)
+            w.SetInputData(image)
+            w.Write()
+            out = os.path.join(d, f"{ext}-{int(compressed)}.vtp")
+            r = ok(path, "-v", "40", "-o", out)
+            surfaces[(ext, compressed)] = table_value(r.stdout, "output triangles")
+            if not compressed:
+                continue
+            with open(path, "rb") as f:
+                data = f.read()
+            declared = b"DimSize = %d %d %d" % dims
+            expect(declared in data, data[:300])
+            longer = os.path.join(d, f"longer.{ext}")
+            with open(longer, "wb") as f:
+                f.write(data.replace(declared, b"DimSize = %d %d %d" % (dims[0], dims[1], dims[2] + 7)))
+            want = 4 * dims[0] * dims[1] * dims[2]
+            refused = os.path.join(d, f"longer-{ext}.vtp")
+            expect_error([longer, "-o", refused],
+                         f"its compressed data holds {want} bytes where its DimSize declares "
+                         f"{want // dims[2] * (dims[2] + 7)}", outputs=[refused], status=1)
+    expect(len(set(surfaces.values())) == 1 and min(surfaces.values()) > 0, surfaces)
+
+
+@check
+def header_frames_are_applied():
+    """The world frame a header gives (orientation, position, spacing) is the
+    surface's, as a .vti with the same Direction, Origin and Spacing gives
+    it: a NRRD's space directions and space origin, a MetaImage's
+    TransformMatrix (each axis's direction in turn) and Offset, a NIfTI's
+    sform (or qform). VTK 9.1's readers keep at most the spacing and the
+    offset: a mirrored NRRD came out unmirrored, a NIfTI's offset was
+    dropped, all with exit status 0. The frame here turns and mirrors
+    (the axes' directions are not the identity's in any order); a 4D
+    NIfTI is refused (its reader gives the first time point only)."""
+    d = fresh_dir("header-frames")
+    dims, _, _, v = blob_volume()
+    spacing = (0.8, 0.9, 1.1)
+    origin = (10.0, -20.0, 30.5)
+    c, s = math.cos(0.5), math.sin(0.5)
+    # Columns: each axis's direction in the world (a turn about z, then
+    # the z axis mirrored).
+    direction = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, -1.0]])
+    reference = density_image(v, dims, spacing, origin)
+    reference.SetDirectionMatrix(*direction.ravel())
+    paths = {"vti": os.path.join(d, "frame.vti")}
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(paths["vti"])
+    w.SetInputData(reference)
+    w.Write()
+    steps = [direction[:, a] * spacing[a] for a in range(3)]
+    vec = lambda x: "(%s)" % ",".join(repr(float(c)) for c in x)
+    header = ("NRRD0004\ntype: float\ndimension: 3\nspace: left-posterior-superior\n"
+              "sizes: %d %d %d\nspace directions: %s\nspace origin: %s\nendian: little\n"
+              "encoding: raw\n\n" % (*dims, " ".join(vec(x) for x in steps), vec(origin)))
+    paths["nrrd"] = os.path.join(d, "frame.nrrd")
+    with open(paths["nrrd"], "wb") as f:
+        f.write(header.encode() + v.astype("<f4").tobytes())
+    # MetaImage: VTK's writer writes the Offset and an identity matrix.
+    paths["mha"] = os.path.join(d, "frame.mha")
+    w = vtkMetaImageWriter()
+    w.SetFileName(paths["mha"])
+    w.SetCompression(False)
+    w.SetInputData(density_image(v, dims, spacing, origin))
+    w.Write()
+    with open(paths["mha"], "rb") as f:
+        data = f.read()
+    matrix = ("TransformMatrix = " + " ".join(repr(float(x)) for x in direction.T.ravel())).encode()
+    expect(b"TransformMatrix = 1 0 0 0 1 0 0 0 1" in data, data[:300])
+    with open(paths["mha"], "wb") as f:
+        f.write(data.replace(b"TransformMatrix = 1 0 0 0 1 0 0 0 1", matrix, 1))
+    # NIfTI-1 by hand (VTK's writer would round-trip its own reading): the
+    # sform's rows map (i, j, k) to the world, pixdim the spacing.
+    hdr = bytearray(352)
+    struct.pack_into("<i", hdr, 0, 348)
+    struct.pack_into("<8h", hdr, 40, 3, *dims, 1, 1, 1, 1)
+    struct.pack_into("<hh", hdr, 70, 16, 32)  # float32
+    struct.pack_into("<8f", hdr, 76, 1.0, *spacing, 1.0, 1.0, 1.0, 1.0)
+    struct.pack_into("<fff", hdr, 108, 352.0, 1.0, 0.0)  # vox_offset, scl_slope, scl_inter
+    struct.pack_into("<hh", hdr, 252, 0, 1)  # qform_code 0, sform_code 1
+    for r in range(3):
+        struct.pack_into("<4f", hdr, 280 + 16 * r, *(direction[r] * spacing), origin[r])
+    hdr[344:348] = b"n+1\0"
+    paths["nii"] = os.path.join(d, "frame.nii")
+    with open(paths["nii"], "wb") as f:
+        f.write(bytes(hdr) + v.astype("<f4").tobytes())
+    surfaces = {}
+    for label, path in paths.items():
+        out = os.path.join(d, label + ".vtp")
+        ok(path, "-v", "40", "-q", "-o", out)
+        pts = vtk_to_numpy(read_surface(out).GetPoints().GetData()).astype(np.float64)
+        surfaces[label] = pts[np.lexsort(pts.T[::-1])]
+    want = surfaces["vti"]
+    # Not the frame of an identity matrix, nor of one that ignores the
+    # origin: the reference lies where the frame puts it.
+    index_box = np.array(dims) * spacing
+    expect(want[:, 2].max() < origin[2] + 1e-9 and want[:, 2].min() > origin[2] - index_box[2],
+           "reference not mirrored along z")
+    for label in ("nrrd", "mha", "nii"):
+        got = surfaces[label]
+        if label != "nii":
+            # The same samples in the same frame: the same points (float32).
+            expect(got.shape == want.shape, f"{label}: {got.shape} points, want {want.shape}")
+            err = np.abs(got - want).max()
+        else:
+            # VTK's NIfTI reader turns a mirroring frame into one that is
+            # not, reversing the slices: another triangulation of the same
+            # surface. Each one's points lie on the other (within the
+            # refinement's epsilon, 0.01 cells, twice).
+            from vtkmodules.vtkFiltersCore import vtkImplicitPolyDataDistance
+            err = 0.0
+            for a, b in (("nii", "vti"), ("vti", "nii")):
+                distance = vtkImplicitPolyDataDistance()
+                distance.SetInput(read_surface(os.path.join(d, b + ".vtp")))
+                err = max(err, max(abs(distance.EvaluateFunction(p)) for p in surfaces[a]))
+            err = err if err > 0.03 else 0.0
+        expect(err < 1e-4, f"{label}: points {err} away from the .vti's")
+    # A 4D NIfTI (3 time points): refused.
+    struct.pack_into("<8h", hdr, 40, 4, *dims, 3, 1, 1, 1)
+    four = os.path.join(d, "four.nii")
+    with open(four, "wb") as f:
+        f.write(bytes(hdr) + np.concatenate([v.ravel()] * 3).astype("<f4").tobytes())
+    out = os.path.join(d, "four.vtp")
+    expect_error([four, "-o", out], "3 time points", outputs=[out], status=1)
 
 
 @check
