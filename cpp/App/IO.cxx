@@ -1735,7 +1735,8 @@ void CheckSurfaceFormat(const std::string& path)
   }
 }
 
-void WriteSurface(vtkPolyData* surface, const std::string& path, const std::string& file)
+void WriteSurface(
+  vtkPolyData* surface, const std::string& path, const std::string& file, bool quiet)
 {
   std::string ext = Extension(path);
   vtkSmartPointer<vtkAlgorithm> writer;
@@ -1789,10 +1790,13 @@ void WriteSurface(vtkPolyData* surface, const std::string& path, const std::stri
           ".obj)");
       }
     }
-    std::cerr << "precisemc: warning: '" << path << "': " << ext.substr(1)
-              << " stores float coordinates, which round these points by more than the run's "
-                 "accuracy (.vtp and .obj keep double)"
-              << std::endl;
+    if (!quiet)
+    {
+      std::cerr << "precisemc: warning: '" << path << "': " << ext.substr(1)
+                << " stores float coordinates, which round these points by more than the "
+                   "run's accuracy (.vtp and .obj keep double)"
+                << std::endl;
+    }
   }
 
   TakeVTKErrors();

@@ -33,8 +33,9 @@ void CheckSurfaceFormat(const std::string& path);
 
 // Writes the surface in the format of path's extension into file, the
 // temporary of path (PendingFiles::Add), which the caller renames onto
-// path. Throws pmcapp::Error.
-void WriteSurface(vtkPolyData* surface, const std::string& path, const std::string& file);
+// path; warns on stderr unless quiet. Throws pmcapp::Error.
+void WriteSurface(
+  vtkPolyData* surface, const std::string& path, const std::string& file, bool quiet);
 
 }
 

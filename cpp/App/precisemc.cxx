@@ -552,7 +552,7 @@ int main(int argc, char* argv[])
       if (!output.empty())
       {
         start = Clock::now();
-        pmcapp::WriteSurface(panel.Refined, output, files.Add(output));
+        pmcapp::WriteSurface(panel.Refined, output, files.Add(output), o.Quiet);
         writeSeconds = SecondsSince(start);
       }
 
