@@ -1333,18 +1333,18 @@ bool IsNrrd(const std::string& path)
 namespace
 {
 vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
-  const std::string& path, std::vector<std::string>& warnings);
+  const std::string& path, const std::string& array, std::vector<std::string>& warnings);
 }
 
 // A failure inside a reader (an allocation of a size the header made up, a
 // C++ exception from VTK) is reported as a failure to read that file, with
 // its name, not as a bare "out of memory" or library message.
 vtkSmartPointer<vtkImageData> ReadVolume(
-  const std::string& path, std::vector<std::string>& warnings)
+  const std::string& path, const std::string& array, std::vector<std::string>& warnings)
 {
   try
   {
-    return ReadVolumeUnchecked(path, warnings);
+    return ReadVolumeUnchecked(path, array, warnings);
   }
   catch (const Error&)
   {
@@ -1364,7 +1364,7 @@ vtkSmartPointer<vtkImageData> ReadVolume(
 namespace
 {
 vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
-  const std::string& path, std::vector<std::string>& warnings)
+  const std::string& path, const std::string& array, std::vector<std::string>& warnings)
 {
   vtkSmartPointer<vtkAlgorithm> reader;
   NrrdHeader nrrd;
@@ -1490,6 +1490,21 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
         std::to_string(dims[1]) + "x" + std::to_string(dims[2]) + ")");
   }
   vtkPointData* pd = image->GetPointData();
+  if (!array.empty())
+  {
+    if (!pd->GetArray(array.c_str()))
+    {
+      std::string names;
+      for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
+      {
+        const char* n = pd->GetArrayName(i);
+        names += std::string(names.empty() ? "" : ", ") + "'" + (n ? n : "") + "'";
+      }
+      Unreadable(path, "it has no point array of numbers named '" + array + "' (its point "
+          "arrays: " + (names.empty() ? "none" : names) + ")");
+    }
+    pd->SetActiveScalars(array.c_str());
+  }
   if (!pd->GetScalars())
   {
     // Some writers do not flag the scalars: take the first point array.
@@ -1570,6 +1585,11 @@ std::string DescribeVolume(vtkImageData* volume)
     if (scalars->GetNumberOfComponents() > 1)
     {
       text += " (component 0 of " + std::to_string(scalars->GetNumberOfComponents()) + ")";
+    }
+    if (volume->GetPointData()->GetNumberOfArrays() > 1 && scalars->GetName())
+    {
+      // Which one of several (--array chooses).
+      text += std::string(", array '") + scalars->GetName() + "'";
     }
   }
   return text;

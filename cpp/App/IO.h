@@ -18,13 +18,15 @@ namespace pmcapp
 // first point array): .vti, .vtk, .mha, .mhd, .nii, .nii.gz, .nrrd, .nhdr,
 // or a DICOM series when path is a directory. Throws pmcapp::Error with
 // the reason (missing, unknown format, unreadable, not a 3D volume, no
-// scalars). What the volume's file gives but the tool cannot apply is
-// appended to `warnings`, one sentence each (a DICOM series' patient
-// position and orientation).
+// scalars). `array` names the point array to contour ("" for the default).
+// What the volume's file gives but the tool cannot apply is appended to
+// `warnings`, one sentence each (a DICOM series' patient position and
+// orientation).
 vtkSmartPointer<vtkImageData> ReadVolume(
-  const std::string& path, std::vector<std::string>& warnings);
+  const std::string& path, const std::string& array, std::vector<std::string>& warnings);
 
-// "48x48x20, unsigned char" for the table.
+// "48x48x20, unsigned char" for the table (", array 'p'" after it when the
+// volume has several point arrays).
 std::string DescribeVolume(vtkImageData* volume);
 
 // Throws pmcapp::Error (status 2) unless path has a surface extension

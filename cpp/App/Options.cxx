@@ -195,6 +195,14 @@ Options ParseArguments(int argc, char* argv[])
       flag();
       o.Quiet = true;
     }
+    else if (name == "--array")
+    {
+      o.Array = value();
+      if (o.Array.empty())
+      {
+        Usage("--array needs a non-empty array name");
+      }
+    }
     else if (name == "-v" || name == "--value")
     {
       o.Values.push_back(ParseDouble(name, value()));
@@ -306,6 +314,10 @@ Options ParseArguments(int argc, char* argv[])
       Usage("pictures are written as PNG: '" + *png + "' does not end in .png");
     }
   }
+  if (!o.Array.empty() && o.Input.empty())
+  {
+    Usage("--array chooses a point array of an input file; the samples have one");
+  }
   if (o.MeasureDensity >= 0 && !o.Measure)
   {
     Usage("--measure-density needs --measure");
@@ -333,6 +345,8 @@ options:
   -v, --value V         isovalue (repeatable; the surfaces are appended).
                         Default: the sample's isovalue, or for a file the
                         middle of its scalar range
+      --array NAME      the input's point array to contour (default: its
+                        active scalars, else its first point array)
       --sample NAME     built-in volume: tube, atoms, ml or all
       --epsilon E       largest distance of a triangle's sample points to
                         the trilinear isosurface (or --filter's), in

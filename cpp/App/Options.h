@@ -12,6 +12,7 @@ struct Options
 {
   std::string Input;       // a volume file or a DICOM directory; "" = samples
   std::string Sample;      // "" (none asked), a sample name or "all"
+  std::string Array;       // --array: the point array to contour; "" = default
   std::vector<double> Values; // -v; empty = the default isovalue
 
   // The filter's properties (vtkPreciseMarchingCubes enums).

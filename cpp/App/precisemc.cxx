@@ -159,7 +159,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     DataSet d;
     Clock::time_point start = Clock::now();
     std::vector<std::string> warnings;
-    d.Volume = pmcapp::ReadVolume(o.Input, warnings);
+    d.Volume = pmcapp::ReadVolume(o.Input, o.Array, warnings);
     for (const std::string& w : o.Quiet ? std::vector<std::string>() : warnings)
     {
       std::cerr << "precisemc: warning: '" << o.Input << "': " << w << "\n";
@@ -217,8 +217,15 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     {
       if (v < range[0] || v > range[1])
       {
+        // Which array, when the file has several (--array chooses).
+        vtkDataArray* scalars = d.Volume->GetPointData()->GetScalars();
+        const std::string which = d.Volume->GetPointData()->GetNumberOfArrays() > 1 &&
+            scalars->GetName()
+          ? std::string(" (array '") + scalars->GetName() + "')"
+          : std::string();
         throw Error("isovalue " + pmcapp::General(v) + " is outside the scalar range [" +
-          pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name);
+          pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name +
+          which);
       }
     }
   }

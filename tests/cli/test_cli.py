@@ -233,7 +233,7 @@ def write_inputs(d):
 def help_and_version():
     r = ok("--help")
     expect(r.stdout.startswith("usage: precisemc"), "help text")
-    for option in ("--value", "--epsilon", "--max-level", "--rule", "--topology", "--filter",
+    for option in ("--value", "--array", "--epsilon", "--max-level", "--rule", "--topology", "--filter",
                    "catmull-rom", "bspline-interpolating", "--normals",
                    "--max-triangles", "--threads", "--smp", "--output", "--compare", "--distance",
                    "--quiet", "--sample", "--version"):
@@ -1230,6 +1230,53 @@ def nifti_scaling_is_applied():
     v = vtk_to_numpy(image.GetPointData().GetScalars())
     expect(abs(lo - (2 * float(v.min()) - 100)) < 1e-3 and abs(hi - (2 * float(v.max()) - 100)) < 1e-3,
            f"range [{lo}, {hi}] is not the scaled one")
+
+
+@check
+def array_option_chooses_the_point_array():
+    """A file of several point arrays, none active: the first is contoured,
+    and the table and a range error name it (the tool chose it without a
+    word, and nothing else could be chosen); --array picks another, which
+    gives the surface of a file holding that array alone; a missing name
+    is an error listing the arrays; --array without an input file is a
+    command-line mistake."""
+    d = fresh_dir("array-option")
+    dims, spacing, origin, v = blob_volume()
+    image = vtkImageData()
+    image.SetDimensions(*dims)
+    image.SetSpacing(*spacing)
+    image.SetOrigin(*origin)
+    pd = image.GetPointData()
+    for name, values in (("density", v), ("pressure", v * 100.0 + 1000.0)):
+        array = numpy_to_vtk(np.ascontiguousarray(values).ravel(), deep=True)
+        array.SetName(name)
+        pd.AddArray(array)
+    both = os.path.join(d, "both.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(both)
+    w.SetInputData(image)
+    w.Write()
+    expect(pd.GetNumberOfArrays() == 2 and pd.GetArrayName(0) == "density", "setup")
+    alone = os.path.join(d, "alone.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(alone)
+    w.SetInputData(density_image(v * 100.0 + 1000.0, dims, spacing, origin))
+    w.Write()
+    r = ok(both, "-v", "40")
+    expect(re.search(r"^both\.vti: 24x20x18, float, array 'density'$", r.stdout, re.M), r.stdout)
+    expect_error([both, "-v", "5000"], "of both.vti (array 'density')")
+    outs = {}
+    for label, args in (("chosen", [both, "--array", "pressure"]), ("alone", [alone])):
+        out = os.path.join(d, label + ".vtp")
+        r = ok(*args, "-v", "5000", "-o", out)
+        outs[label] = vtk_to_numpy(read_surface(out).GetPoints().GetData())
+    expect(outs["chosen"].shape == outs["alone"].shape and
+           np.array_equal(outs["chosen"], outs["alone"]), "--array pressure: another surface")
+    out = os.path.join(d, "o.vtp")
+    expect_error([both, "--array", "velocity", "-o", out],
+                 "no point array of numbers named 'velocity' (its point arrays: 'density', "
+                 "'pressure')", outputs=[out], status=1)
+    expect_error(["--sample", "tube", "--array", "density"], "--array", status=2)
 
 
 @check
