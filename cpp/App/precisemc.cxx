@@ -172,6 +172,11 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
     if (o.Values.empty())
     {
+      if (range[0] == range[1])
+      {
+        throw Error("the scalars of " + d.Name + " are all " + pmcapp::General(range[0]) +
+          " (the finite ones): no isovalue gives a surface");
+      }
       d.Values.push_back(0.5 * (range[0] + range[1]));
       if (!o.Quiet)
       {
@@ -213,19 +218,27 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     }
     double range[2];
     d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
+    // Which array, when the file has several (--array chooses).
+    vtkDataArray* scalars = d.Volume->GetPointData()->GetScalars();
+    const std::string which =
+      d.Volume->GetPointData()->GetNumberOfArrays() > 1 && scalars->GetName()
+      ? std::string(" (array '") + scalars->GetName() + "')"
+      : std::string();
     for (double v : d.Values)
     {
       if (v < range[0] || v > range[1])
       {
-        // Which array, when the file has several (--array chooses).
-        vtkDataArray* scalars = d.Volume->GetPointData()->GetScalars();
-        const std::string which = d.Volume->GetPointData()->GetNumberOfArrays() > 1 &&
-            scalars->GetName()
-          ? std::string(" (array '") + scalars->GetName() + "')"
-          : std::string();
         throw Error("isovalue " + pmcapp::General(v) + " is outside the scalar range [" +
           pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name +
           which);
+      }
+      if (v == range[0])
+      {
+        // A sample at the isovalue counts as above it (as in
+        // vtkMarchingCubes): at the minimum no cell is crossed.
+        throw Error("isovalue " + pmcapp::General(v) + " is the minimum of the scalar range [" +
+          pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name +
+          which + ": every sample is at or above it, so there is no surface");
       }
     }
   }
@@ -584,6 +597,12 @@ int main(int argc, char* argv[])
         if (filter->GetNumberOfSkippedCells() > 0)
         {
           cellText += ", " + pmcapp::Grouped(filter->GetNumberOfSkippedCells()) + " non-finite";
+        }
+        if (d.Values.size() > 1)
+        {
+          // The filter counts each isovalue's cells: with repeated or
+          // several values a cell counts once per value.
+          cellText += "; summed over the " + std::to_string(d.Values.size()) + " isovalues";
         }
         table << Row("cells", cellText + ")");
         table << Row("MC triangles", pmcapp::Grouped(mc));

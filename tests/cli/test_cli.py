@@ -458,6 +458,9 @@ def explicit_values_and_filter_options():
     r1 = ok(paths["vti"], "-v", "30")
     r2 = ok(paths["vti"], "-v", "30", "--value", "60")
     expect("isovalues" in r2.stdout and "30, 60" in r2.stdout, r2.stdout)
+    # The cells row counts each isovalue's cells, and says so.
+    expect(re.search(r"^  cells .*; summed over the 2 isovalues\)$", r2.stdout, re.M), r2.stdout)
+    expect("summed" not in r1.stdout, r1.stdout)
     expect(table_value(r2.stdout, "output triangles") > table_value(r1.stdout, "output triangles"),
            "two isovalues give no more triangles than one")
     # --epsilon 0 / --max-level 0: plain Marching Cubes.
@@ -657,6 +660,29 @@ def error_isovalue_outside_range():
         w.SetInputData(density_image(values.astype(np.float32), dims, spacing, origin))
         w.Write()
         expect_error([path, "-v", iso, "-o", out], want, outputs=[out])
+    # At the range's minimum every sample is at or above the isovalue (a
+    # sample at it counts as above): no surface, exit status 0 before. At
+    # its maximum there is one (around the samples equal to it).
+    mask = np.zeros(v.shape, np.float32)
+    mask[6:12, 6:12, 6:12] = 1.0
+    path = os.path.join(d, "mask.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(density_image(mask, dims, spacing, origin))
+    w.Write()
+    expect_error([path, "-v", "0", "-o", out], "isovalue 0 is the minimum of the scalar range "
+                 "[0, 1] of mask.vti: every sample is at or above it", outputs=[out])
+    r = ok(path, "-v", "1", "--epsilon", "0")
+    expect(table_value(r.stdout, "MC triangles") > 0, r.stdout)
+    # A constant volume: its default isovalue was that minimum.
+    path = os.path.join(d, "constant.vti")
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(density_image(mask * 0.0 + 5.0, dims, spacing, origin))
+    w.Write()
+    expect_error([path, "-o", out], "the scalars of constant.vti are all 5 (the finite ones): "
+                 "no isovalue gives a surface", outputs=[out])
+    expect_error([path, "-v", "5", "-o", out], "isovalue 5 is the minimum", outputs=[out])
     # An empty file is called empty, whatever its extension.
     for ext in ("vti", "nrrd", "nii"):
         empty = os.path.join(d, "empty." + ext)
