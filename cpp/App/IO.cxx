@@ -973,6 +973,20 @@ public:
     return names;
   }
 
+  // Each slice's position along the slice normal (from its Image Position
+  // (Patient)) and its file, ascending; all 0 when the files give none.
+  std::vector<std::pair<float, std::string>> SlicePositions()
+  {
+    dicom_stl::vector<dicom_stl::pair<float, dicom_stl::string>> pairs;
+    this->AppHelper->GetImagePositionPatientFilenamePairs(pairs);
+    std::vector<std::pair<float, std::string>> out;
+    for (const auto& p : pairs)
+    {
+      out.emplace_back(p.first, FileNameOf(p.second));
+    }
+    return out;
+  }
+
 protected:
   vtkSliceListingDICOMReader() = default;
   ~vtkSliceListingDICOMReader() override = default;
@@ -1439,6 +1453,37 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
       Unreadable(path, "its file '" + skipped +
           "' is not a readable DICOM slice (empty, cut short or not DICOM): the series would "
           "be read without it");
+    }
+    // A slice file missing from the directory: the reader closes the gap
+    // up (the slices beyond it move by a slice). Seen in the positions:
+    // one step well beyond the others.
+    const auto positions = dicom->SlicePositions();
+    if (positions.size() >= 3)
+    {
+      std::vector<double> steps;
+      for (size_t i = 1; i < positions.size(); ++i)
+      {
+        steps.push_back(static_cast<double>(positions[i].first) - positions[i - 1].first);
+      }
+      std::vector<double> sorted = steps;
+      std::sort(sorted.begin(), sorted.end());
+      const double typical = sorted[sorted.size() / 2];
+      // Six digits: the positions went through float.
+      const auto text = [](double x) {
+        char buf[32];
+        std::snprintf(buf, sizeof(buf), "%.6g", x);
+        return std::string(buf);
+      };
+      for (size_t i = 0; typical > 0.0 && i < steps.size(); ++i)
+      {
+        if (steps[i] > 1.5 * typical)
+        {
+          Unreadable(path, "its slice positions jump by " + text(steps[i]) + " between '" +
+              positions[i].second + "' and '" + positions[i + 1].second + "', where the other "
+              "slices are " + text(typical) + " apart: a slice is missing (the series would "
+              "be read with the slices around the gap closed up)");
+        }
+      }
     }
   }
   else

@@ -371,6 +371,14 @@ def dicom_slice_that_cannot_be_read_is_refused():
             expect_error([series, "-o", out], "slice007.dcm", outputs=[out], status=1)
         except Failure as e:
             raise Failure(f"{label}: {e}")
+    # A slice file missing altogether: the reader closed the gap up
+    # (24x20x17 at the same spacing). Seen in the slice positions.
+    gap = os.path.join(d, "gap")
+    write_series(gap, samples, spacing)
+    os.remove(os.path.join(gap, "slice006.dcm"))
+    expect_error([gap, "-o", out], "its slice positions jump by 2.2 between 'slice005.dcm' and "
+                 "'slice007.dcm', where the other slices are 1.1 apart: a slice is missing",
+                 outputs=[out], status=1)
     # Slice files without an extension: the same.
     bare = os.path.join(d, "bare")
     write_series(bare, samples, spacing, prefix="IM", suffix="")
