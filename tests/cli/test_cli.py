@@ -612,6 +612,21 @@ def error_corrupt_inputs():
             with open(path, "wb") as f:
                 f.write(cut)
             cases[f"raw {header} short by {label}"] = path
+    # A legacy header declaring 1000^3 samples in a file of a few KB: the
+    # reader allocated 4 GB and read for 18 s before failing. Refused at
+    # once, with the byte counts.
+    with open(good["vtk"], "rb") as f:
+        data = f.read()
+    head = data[: data.index(b"LOOKUP_TABLE default\n") + 21]
+    head = re.sub(rb"DIMENSIONS \d+ \d+ \d+", b"DIMENSIONS 1000 1000 1000", head)
+    head = re.sub(rb"POINT_DATA \d+", b"POINT_DATA 1000000000", head)
+    huge = os.path.join(d, "huge.vtk")
+    with open(huge, "wb") as f:
+        f.write(head + b"\0" * 4000)
+    started = time.monotonic()
+    expect_error([huge, "-o", os.path.join(d, "o.vtp")], "fewer than the 4000000000 that the "
+                 "1000000000 float samples its header declares need", status=1)
+    expect(time.monotonic() - started < 60, "the huge header was read before it was refused")
     # Empty file.
     path = os.path.join(d, "empty.vti")
     open(path, "w").close()
