@@ -314,6 +314,17 @@ Options ParseArguments(int argc, char* argv[])
       Usage("pictures are written as PNG: '" + *png + "' does not end in .png");
     }
   }
+  for (size_t i = 0; i < o.Values.size(); ++i)
+  {
+    for (size_t j = 0; j < i; ++j)
+    {
+      if (o.Values[i] == o.Values[j])
+      {
+        // Its surface would be written twice, coincident.
+        Usage("isovalue " + General(o.Values[i]) + " is given twice");
+      }
+    }
+  }
   if (!o.Array.empty() && o.Input.empty())
   {
     Usage("--array chooses a point array of an input file; the samples have one");

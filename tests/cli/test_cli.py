@@ -750,6 +750,8 @@ def error_bad_option_values():
     out = os.path.join(d, "o.vtp")
     cases = [
         (["--epsilon", "-0.1"], "--epsilon"),
+        # A repeated isovalue wrote its surface twice, coincident.
+        (["-v", "50.5", "-v", "40", "--value", "50.5"], "isovalue 50.5 is given twice"),
         (["--epsilon", "abc"], "not a finite number"),
         (["--epsilon", "nan"], "not a finite number"),
         (["--rule", "C"], "unknown value"),
@@ -1570,6 +1572,7 @@ def nrrd_dimensions_vtk_crashes_on_are_refused():
     out = os.path.join(d, "o.vtp")
     data = np.zeros(1000, dtype="u1")
     data[555] = 9
+    data[554] = 9  # component 0 of the vector reads too (not a constant)
     head = "NRRD0004\ntype: uchar\n%sencoding: raw\n\n"
     cases = [
         ("none.nrrd", "sizes: 10 10 10\n", "no dimension"),
@@ -1602,6 +1605,7 @@ def nrrd_4d_with_a_spatial_first_axis_is_refused():
     out = os.path.join(d, "o.vtp")
     data = np.zeros(2000, dtype="u1")
     data[555] = 9
+    data[554] = 9  # component 0 of the vector reads too (not a constant)
     head = "NRRD0004\ntype: uchar\ndimension: 4\nsizes: 10 10 10 2\n%sencoding: raw\n\n"
     cases = [
         ("time.nrrd", "kinds: domain domain domain time\n", "'domain'"),
