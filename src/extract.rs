@@ -1391,6 +1391,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     count_leaves.clear();
                     let mut merged = false;
                     let mut sliver = false;
+                    let grow_failed = std::cell::Cell::new(0usize);
                     let nearest_before = out.counters.nearest_splits;
                     let mut area = DVec3::ZERO;
                     seen.clear();
@@ -1425,6 +1426,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         cancel: sh.cancel,
                         polls: 0,
                         tick: sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
+                        alloc_failed: 0,
                         refinable: if attempt < ATTEMPTS - 1 {
                             refinable
                         } else {
@@ -1474,6 +1476,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                     next_id
                                 },
                             );
+                            if refiner.alloc_failed != 0 {
+                                out.scratch_failed = refiner.alloc_failed;
+                                break 'layers;
+                            }
                             if !within_budget {
                                 // More leaves than the cap: the level does
                                 // not fit, whatever the rest counts (or
@@ -1488,10 +1494,29 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                             let sliver = &mut sliver;
                             let tris = &mut out.tris;
                             let levels = &mut out.levels;
+                            // Past the cell's reservation (a patch that may
+                            // outgrow CELL_RESERVE_LIMIT) the buffers grow
+                            // fallibly: an allocation that fails is
+                            // recorded, nothing more is stored, and the
+                            // pass fails with OutOfMemory after this tree
+                            // (an infallible push aborted the host).
                             let within_budget = refiner.run(
                                 root,
                                 true,
                                 &mut |tri: &Tri| {
+                                    if grow_failed.get() != 0 {
+                                        return;
+                                    }
+                                    if tris.len() == tris.capacity()
+                                        || levels.len() == levels.capacity()
+                                    {
+                                        let room = try_room(tris, tris.len().max(1024))
+                                            .and_then(|_| try_room(levels, levels.len().max(1024)));
+                                        if let Err(bytes) = room {
+                                            grow_failed.set(bytes);
+                                            return;
+                                        }
+                                    }
                                     tris.push(tri.v);
                                     levels.push(tri.level);
                                     let a = vector_area(tri.p);
@@ -1511,6 +1536,24 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                     // weld with the face's other points.
                                     let inner = strictly_inside(gp, cell_f);
                                     let m = if inner { &mut *local } else { &mut *map };
+                                    if grow_failed.get() != 0 {
+                                        return 0;
+                                    }
+                                    let room = if verts.len() == verts.capacity() {
+                                        try_room(verts, verts.len().max(1024))
+                                    } else {
+                                        Ok(())
+                                    }
+                                    .and_then(|_| {
+                                        m.try_reserve(1).map_err(|_| {
+                                            (2 * m.capacity().max(1024))
+                                                .saturating_mul(size_of::<([u64; 3], u32)>())
+                                        })
+                                    });
+                                    if let Err(bytes) = room {
+                                        grow_failed.set(bytes);
+                                        return 0;
+                                    }
                                     let mut new = false;
                                     let id = *m.entry(key(gp)).or_insert_with(|| {
                                         new = true;
@@ -1527,6 +1570,11 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                     id
                                 },
                             );
+                            let failed = grow_failed.get().max(refiner.alloc_failed);
+                            if failed != 0 {
+                                out.scratch_failed = failed;
+                                break 'layers;
+                            }
                             if !within_budget {
                                 // Over the cap (or stopped): this pass's
                                 // output is dropped, stop here.

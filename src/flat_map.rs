@@ -103,6 +103,41 @@ impl<V: Copy + Default> FlatMap<V> {
         None
     }
 
+    /// [`FlatMap::insert_new`], growing the table fallibly: `Err(bytes)`,
+    /// the map unchanged, when the larger table cannot be allocated (a
+    /// cell refined to a high level fills millions of entries).
+    #[inline]
+    pub fn try_insert_new(&mut self, key: u64, value: V) -> Result<Option<V>, usize> {
+        if 2 * (self.len + 1) > self.slots.len() {
+            self.try_grow()?;
+        }
+        Ok(self.insert_new(key, value))
+    }
+
+    /// Doubles the table, keeping the entries; `Err(bytes)` when the new
+    /// table cannot be allocated.
+    #[cold]
+    fn try_grow(&mut self) -> Result<(), usize> {
+        let n = 1usize << (64 - self.shift + 1);
+        let bytes = n.saturating_mul(std::mem::size_of::<(u32, u64, V)>());
+        let mut slots = Vec::new();
+        slots.try_reserve_exact(n).map_err(|_| bytes)?;
+        slots.resize(n, (0, 0, V::default()));
+        let fresh = FlatMap {
+            slots,
+            generation: 1,
+            len: 0,
+            shift: self.shift - 1,
+        };
+        let old = std::mem::replace(self, fresh);
+        for (g, k, v) in old.slots {
+            if g == old.generation {
+                self.insert_new(k, v);
+            }
+        }
+        Ok(())
+    }
+
     /// Doubles the table, keeping the entries.
     #[cold]
     fn grow(&mut self) {
@@ -119,6 +154,18 @@ impl<V: Copy + Default> FlatMap<V> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fallible_insertion_grows_like_insertion() {
+        let (mut a, mut b) = (FlatMap::<u32>::default(), FlatMap::<u32>::default());
+        for k in 0..10_000u64 {
+            let key = k.wrapping_mul(0x2545_F491_4F6C_DD1D);
+            assert_eq!(a.try_insert_new(key, k as u32), Ok(b.insert_new(key, k as u32)));
+            assert_eq!(a.try_insert_new(key, 7), Ok(Some(k as u32)));
+        }
+        assert_eq!((a.len, a.slots.len()), (b.len, b.slots.len()));
+        assert!((0..10_000u64).all(|k| a.get(k.wrapping_mul(0x2545_F491_4F6C_DD1D)) == Some(k as u32)));
+    }
 
     #[test]
     fn behaves_like_a_hash_map_across_clears_and_growth() {

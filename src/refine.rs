@@ -61,6 +61,10 @@ pub(crate) struct Refiner<'c, F: ReconstructionFilter> {
     /// Called with each read of the stop request (the extraction's progress
     /// report, which may ask to stop, when this runs on the calling thread).
     pub tick: Option<&'c (dyn Fn() + Sync)>,
+    /// Bytes of the edge cache's growth that could not be allocated (0:
+    /// none); `run` then returns false and the extraction fails with
+    /// `OutOfMemory` instead of aborting the host.
+    pub alloc_failed: usize,
 }
 
 /// Nodes between two reads of [`Refiner::cancel`] (a few milliseconds of
@@ -936,7 +940,10 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                             split: r.is_some(),
                             ..EdgeDecision::default()
                         };
-                        self.cache.insert_new(keys[e], d);
+                        if let Err(bytes) = self.cache.try_insert_new(keys[e], d) {
+                            self.alloc_failed = bytes;
+                            return false;
+                        }
                         d
                     }
                 };

@@ -651,6 +651,25 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
                     << ": integer and floating point arrays are supported");
       return 1;
     }
+    // An array chosen by a name the input lacks (ParaView's Contour By):
+    // name it and what there is.
+    vtkInformation* chosen = this->GetInputArrayInformation(0);
+    const char* wanted = chosen && chosen->Has(vtkDataObject::FIELD_NAME())
+      ? chosen->Get(vtkDataObject::FIELD_NAME())
+      : nullptr;
+    if (wanted && *wanted)
+    {
+      std::string names;
+      vtkPointData* pd = input->GetPointData();
+      for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
+      {
+        const char* n = pd->GetArrayName(i);
+        names += std::string(names.empty() ? "" : ", ") + (n ? n : "(unnamed)");
+      }
+      vtkErrorMacro(<< "No point array named '" << wanted << "' to contour (the input's point "
+                    << "arrays: " << (names.empty() ? std::string("none") : names) << ")");
+      return 1;
+    }
     vtkErrorMacro(<< "No scalars to contour: the input has no point scalars "
                   << "(or no array selected with SetInputArrayToProcess())");
     return 1;
@@ -975,7 +994,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   {
     vtkErrorMacro(<< "The world coordinates of the input reach " << worldMax
                   << ", beyond single precision: set OutputPointsPrecision to DOUBLE_PRECISION "
-                     "(or DEFAULT_PRECISION)");
+                     "(or DEFAULT_PRECISION; in ParaView, Output Points Precision to Double or "
+                     "Default)");
     output->Initialize();
     return 1;
   }

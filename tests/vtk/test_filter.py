@@ -575,6 +575,24 @@ def test_error_no_scalars():
     assert f.GetOutput().GetNumberOfPoints() == 0
 
 
+def test_error_names_a_missing_chosen_array(rng):
+    # An array chosen by a name the input lacks (ParaView's Contour By of
+    # another dataset): the message names it and the arrays there are.
+    image = image_from_array(rng.random((5, 6, 7)))
+    image.GetPointData().GetScalars().SetName("RTData")
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 0.5)
+    f.SetInputArrayToProcess(0, 0, 0, 0, "pressure")  # points, by name
+    errors = ErrorObserver(f)
+    f.Update()
+    assert errors.errors and (
+        "No point array named 'pressure' to contour (the input's point arrays: RTData)"
+        in errors.errors[-1]
+    )
+    assert f.GetOutput().GetNumberOfPoints() == 0
+
+
 def test_error_bad_array_component(rng):
     image = image_from_array(rng.random((5, 6, 7, 2)))
     f = vtkPreciseMarchingCubes()
