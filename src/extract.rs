@@ -106,7 +106,8 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// Returning `ControlFlow::Break(())` stops the extraction once each
 /// worker finishes the cell layer it is on (within a few milliseconds for
 /// layers of up to about a million cells; a layer of very many cells
-/// takes longer); it then returns [`Error::Aborted`]. Welding the
+/// takes longer); it then returns [`Error::Aborted`], also when that is
+/// the answer to the last call, with 1.0 (the mesh is then dropped). Welding the
 /// workers' outputs into one mesh (before the call with 0.97) and the
 /// normals (after it) make no calls: on meshes of tens of millions of
 /// triangles they take seconds, during which no stop can be asked.

@@ -3,7 +3,11 @@
 //!
 //! Marching Cubes and refinement only ever ask a filter for a value and a
 //! gradient at a point of one cell, so new filters plug in here without
-//! touching either. A filter must be *face-consistent*: on a face shared by
+//! touching either. That is an extension point of the crate itself:
+//! [`crate::extract`] takes one of the filters
+//! [`crate::Reconstruction`] names, and a filter implemented outside the
+//! crate serves [`crate::project`]'s functions (projection, the epsilon
+//! test, edge crossings), not an extraction. A filter must be *face-consistent*: on a face shared by
 //! two cells, both cells must return bit-identical values and bit-identical
 //! gradient components along the face, so that split points on shared
 //! faces are identical from both sides (crack-free, piece-independent).

@@ -147,7 +147,8 @@ pub struct Mesh {
     pub index_points: Vec<[f64; 3]>,
     /// Three point indices per triangle.
     pub triangles: Vec<[u64; 3]>,
-    /// Unit normals per point (empty when not requested).
+    /// Unit normals per point (empty when not requested); (0, 0, 0) where
+    /// the data gives no direction (see [`crate::NormalMode`]).
     pub normals: Vec<[f32; 3]>,
     /// Refinement level per triangle (0 = Marching Cubes triangle).
     pub levels: Vec<u8>,

@@ -59,6 +59,11 @@ pub fn cell_triangles(f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool
 /// [`cell_triangles`] for a cell whose case index the caller already has
 /// (`case == case_index(f)`): the extraction reads it from its case row,
 /// and recomputing it took a tenth of plain Marching Cubes' cell loop.
+///
+/// # Panics
+///
+/// With debug assertions on, when `case` is not `case_index(f)` (in a
+/// release build the triangles are those of `case`).
 #[inline]
 pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &mut Patch) -> bool {
     debug_assert_eq!(case, case_index(f));
@@ -78,6 +83,10 @@ pub fn cell_triangles_of_case(case: u8, f: &[f64; 8], topology: Topology, out: &
 /// points, and whether the trilinear topology test ran: the triangles are
 /// borrowed from the fixed table, without a copy, unless the test decides
 /// them into `out` (emptied first).
+///
+/// # Panics
+///
+/// As [`cell_triangles_of_case`], when `case` is not `case_index(f)`.
 #[inline]
 pub fn cell_triangles_borrowed<'a>(
     case: u8,

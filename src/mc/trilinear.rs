@@ -197,6 +197,11 @@ impl Loops {
     }
 
     /// Loop `k`'s edges in order.
+    ///
+    /// # Panics
+    ///
+    /// When `k` is not below [`Loops::len`] (`k` up to 3 may return an
+    /// empty slice instead; do not rely on it).
     pub fn get(&self, k: usize) -> &[u8] {
         &self.edges[self.ends[k] as usize..self.ends[k + 1] as usize]
     }
