@@ -1578,15 +1578,9 @@ fn tiny_and_huge_magnitudes_give_the_topology_of_the_unscaled_data() {
 #[test]
 fn extreme_magnitudes_are_refined_like_ordinary_ones() {
     let n = 9usize;
-    let mut v = Vec::with_capacity(n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = (i as f64, j as f64, k as f64);
-                v.push((0.9 * x).sin() + (0.7 * y).cos() * (0.4 * z).sin() - 0.3 * (1.1 * z).cos());
-            }
-        }
-    }
+    let v = grid_fn([n; 3], |x, y, z| {
+        (0.9 * x).sin() + (0.7 * y).cos() * (0.4 * z).sin() - 0.3 * (1.1 * z).cos()
+    });
     let mut failures = Vec::new();
     for topology in [Topology::Trilinear, Topology::Classic] {
         for rule in [Rule::A1, Rule::B] {
@@ -1895,15 +1889,9 @@ fn centroid_rules_keep_a_generic_cell_manifold() {
 fn plain_meshes_and_normals_do_not_depend_on_the_scale_of_the_data() {
     use precisemc::NormalMode;
     let n = 9usize;
-    let mut v = Vec::with_capacity(n * n * n);
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = (i as f64, j as f64, k as f64);
-                v.push(1.9 * (2.3 * x + 1.7 * y + 1.1 * z).sin() * (0.5 + 0.5 * (0.3 * y).cos()));
-            }
-        }
-    }
+    let v = grid_fn([n; 3], |x, y, z| {
+        1.9 * (2.3 * x + 1.7 * y + 1.1 * z).sin() * (0.5 + 0.5 * (0.3 * y).cos())
+    });
     // At 2^1023 the samples stay below f64::MAX but the differences
     // between neighbours of opposite signs overflow.
     let big = |x: f64| x * 2f64.powi(1023);

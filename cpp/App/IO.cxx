@@ -447,29 +447,55 @@ void ApplyNrrdFrame(vtkImageData* volume, const std::string& path, const NrrdHea
 // leaves the matrix out.
 std::string FileHead(const std::string& path, size_t bytes);
 
-void ApplyMetaImageFrame(vtkImageData* volume, const std::string& path)
+// One "Key = value" line of a MetaImage header, and the byte offset just
+// past it in the file.
+struct MetaField
 {
+  std::string key;
+  std::string value;
+  size_t end;
+};
+
+// The fields of a MetaImage header, up to ElementDataFile (the last, after
+// which LOCAL data starts), keys and values trimmed.
+std::vector<MetaField> MetaImageFields(const std::string& path)
+{
+  std::vector<MetaField> fields;
   std::istringstream header(FileHead(path, 1 << 16));
   std::string line;
+  size_t consumed = 0;
   while (std::getline(header, line))
   {
+    consumed += line.size() + 1;
     const size_t eq = line.find('=');
     if (eq == std::string::npos)
     {
       continue;
     }
-    std::string key = line.substr(0, eq);
-    key.erase(key.find_last_not_of(" \t") + 1);
-    key.erase(0, key.find_first_not_of(" \t"));
-    if (key == "ElementDataFile")
+    const auto trim = [](std::string t) {
+      t.erase(0, t.find_first_not_of(" \t"));
+      t.erase(t.find_last_not_of(" \t\r") + 1);
+      return t;
+    };
+    fields.push_back({ trim(line.substr(0, eq)), trim(line.substr(eq + 1)), consumed });
+    if (fields.back().key == "ElementDataFile")
     {
       break; // the end of the header
     }
+  }
+  return fields;
+}
+
+void ApplyMetaImageFrame(vtkImageData* volume, const std::string& path)
+{
+  for (const MetaField& field : MetaImageFields(path))
+  {
+    const std::string& key = field.key;
     if (key != "TransformMatrix" && key != "Rotation" && key != "Orientation")
     {
       continue;
     }
-    std::istringstream numbers(line.substr(eq + 1));
+    std::istringstream numbers(field.value);
     double m[9];
     std::string extra;
     bool good = true;
@@ -1157,30 +1183,16 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
 // named by ElementDataFile) and element types of a known size.
 void CheckMetaImageCompressedSize(const std::string& path)
 {
-  const std::string head = FileHead(path, 1 << 16);
-  std::istringstream header(head);
-  std::string line;
   bool compressed = false;
   std::vector<long long> dims;
   long long channels = 1;
   int elementSize = 0;
   std::string dataFile;
   size_t dataOffset = 0; // of LOCAL data in the header's file
-  size_t consumed = 0;
-  while (std::getline(header, line))
+  for (const MetaField& field : MetaImageFields(path))
   {
-    consumed += line.size() + 1;
-    const size_t eq = line.find('=');
-    if (eq == std::string::npos)
-    {
-      continue;
-    }
-    std::string key = line.substr(0, eq);
-    key.erase(key.find_last_not_of(" \t") + 1);
-    key.erase(0, key.find_first_not_of(" \t"));
-    std::string value = line.substr(eq + 1);
-    value.erase(0, value.find_first_not_of(" \t"));
-    value.erase(value.find_last_not_of(" \t\r") + 1);
+    const std::string& key = field.key;
+    const std::string& value = field.value;
     std::istringstream values(value);
     if (key == "CompressedData")
     {
@@ -1212,8 +1224,7 @@ void CheckMetaImageCompressedSize(const std::string& path)
     else if (key == "ElementDataFile")
     {
       dataFile = value;
-      dataOffset = consumed;
-      break; // the end of the header
+      dataOffset = field.end;
     }
   }
   if (!compressed || elementSize == 0 || dims.empty() || channels < 1 || dataFile.empty() ||
