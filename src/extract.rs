@@ -1540,17 +1540,18 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                     if grow_failed.get() != 0 {
                                         return 0;
                                     }
-                                    let room = if verts.len() == verts.capacity() {
-                                        try_room(verts, verts.len().max(1024))
-                                    } else {
-                                        Ok(())
-                                    }
-                                    .and_then(|_| {
-                                        m.try_reserve(1).map_err(|_| {
-                                            (2 * m.capacity().max(1024))
-                                                .saturating_mul(size_of::<([u64; 3], u32)>())
-                                        })
-                                    });
+                                    let room =
+                                        if verts.len() == verts.capacity() {
+                                            try_room(verts, verts.len().max(1024))
+                                        } else {
+                                            Ok(())
+                                        }
+                                        .and_then(|_| {
+                                            m.try_reserve(1).map_err(|_| {
+                                                (2 * m.capacity().max(1024))
+                                                    .saturating_mul(size_of::<([u64; 3], u32)>())
+                                            })
+                                        });
                                     if let Err(bytes) = room {
                                         grow_failed.set(bytes);
                                         return 0;

@@ -160,11 +160,16 @@ mod tests {
         let (mut a, mut b) = (FlatMap::<u32>::default(), FlatMap::<u32>::default());
         for k in 0..10_000u64 {
             let key = k.wrapping_mul(0x2545_F491_4F6C_DD1D);
-            assert_eq!(a.try_insert_new(key, k as u32), Ok(b.insert_new(key, k as u32)));
+            assert_eq!(
+                a.try_insert_new(key, k as u32),
+                Ok(b.insert_new(key, k as u32))
+            );
             assert_eq!(a.try_insert_new(key, 7), Ok(Some(k as u32)));
         }
         assert_eq!((a.len, a.slots.len()), (b.len, b.slots.len()));
-        assert!((0..10_000u64).all(|k| a.get(k.wrapping_mul(0x2545_F491_4F6C_DD1D)) == Some(k as u32)));
+        assert!(
+            (0..10_000u64).all(|k| a.get(k.wrapping_mul(0x2545_F491_4F6C_DD1D)) == Some(k as u32))
+        );
     }
 
     #[test]

@@ -1899,7 +1899,10 @@ fn plain_meshes_and_normals_do_not_depend_on_the_scale_of_the_data() {
     assert!(v.windows(2).any(|w| (big(w[1]) - big(w[0])).is_infinite()));
     let mut failures = Vec::new();
     let modes = [NormalMode::Gradient, NormalMode::CentralDifference];
-    for (normals, topology) in modes.into_iter().zip([Topology::Trilinear, Topology::Classic]) {
+    for (normals, topology) in modes
+        .into_iter()
+        .zip([Topology::Trilinear, Topology::Classic])
+    {
         for max_level in [0, 3] {
             let opts = Options {
                 epsilon: 0.01,
@@ -1924,9 +1927,17 @@ fn plain_meshes_and_normals_do_not_depend_on_the_scale_of_the_data() {
                         .iter()
                         .zip(&plain.points)
                         .all(|(a, b)| (0..3).all(|c| a[c].to_bits() == b[c].to_bits()));
-                let same_normals = m.normals.iter().map(bits).eq(plain.normals.iter().map(bits));
+                let same_normals = m
+                    .normals
+                    .iter()
+                    .map(bits)
+                    .eq(plain.normals.iter().map(bits));
                 if !(same_points && same_normals) {
-                    let zero = m.normals.iter().filter(|m| m.iter().all(|c| *c == 0.0)).count();
+                    let zero = m
+                        .normals
+                        .iter()
+                        .filter(|m| m.iter().all(|c| *c == 0.0))
+                        .count();
                     failures.push(format!(
                         "{normals:?} {topology:?} level {max_level} x 2^{e}: same points and \
                          triangles {same_points}, same normals {same_normals} ({zero} of {} zero)",
