@@ -565,30 +565,58 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
     }
 }
 
-/// `f` times a power of two that brings its largest magnitude into
-/// `[1, 2)`, when that magnitude lies outside `[2^-256, 2^256]` (and is not
-/// 0); else `None`. Differences of values near `f64::MAX` overflow (the
-/// slices' value changes of [`regions`], the edges' [`crossing`]s), and
-/// squares of values beyond about 1e154 or below about 1e-160 overflow or
-/// underflow (the gradient's length where [`interior_point`] projects): a
-/// cell of such values got the topology, or the interior vertex, of other
-/// data. Scaling by a power of two changes no crossing, decision or root;
-/// a value that the scaling would round to zero keeps its sign as the
-/// least subnormal of that sign (its corner's side must not change).
+/// Values beyond this magnitude are brought down by [`HEADROOM_SCALE`]
+/// before a cell's patch is worked out (see [`with_headroom`]).
+const HEADROOM_LIMIT: f64 = 8.98846567431158e299; // 2^1000
+
+/// An exact power of two, 2^-24.
+const HEADROOM_SCALE: f64 = 5.960464477539063e-8;
+
+/// `f` times [`HEADROOM_SCALE`] when some value exceeds
+/// [`HEADROOM_LIMIT`], else `None`. Differences of values near
+/// `f64::MAX` overflow (the slices' value changes of [`regions`], the
+/// edges' [`crossing`]s, the gradients of [`interior_point`]): a cell of
+/// such values got the topology of other data. Scaling by a power of two
+/// changes no crossing, decision or root; a value that the scaling would
+/// round to zero keeps its sign as the least subnormal of that sign (its
+/// corner's side must not change).
 fn with_headroom(f: &[f64; 8]) -> Option<[f64; 8]> {
-    let m = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !crate::magnitude::out_of_range(m) {
+    if f.iter().all(|v| v.abs() <= HEADROOM_LIMIT) {
         return None;
     }
-    let [a, b] = crate::magnitude::factors(m);
     Some(f.map(|v| {
-        let w = v * a * b;
+        let w = v * HEADROOM_SCALE;
         if w == 0.0 && v != 0.0 {
             f64::from_bits(1).copysign(v)
         } else {
             w
         }
     }))
+}
+
+/// `f` times a power of two that brings its largest magnitude into
+/// `[1, 2)`, when that magnitude lies outside `[2^-256, 2^256]` (and is not
+/// 0); else `f` itself. For a fan's interior vertex only, which no other
+/// cell shares: squares of values beyond about 1e154 or below about 1e-160
+/// overflow or underflow (the gradient's length where [`interior_point`]
+/// projects), and the vertex took the fallback's point, a tenth of a cell
+/// away. (Not for the patch's decisions: a value the scaling rounds to
+/// zero would decide a shared face unlike the cell across it, whose
+/// largest value differs.)
+fn unit_scaled(f: &[f64; 8]) -> [f64; 8] {
+    let m = f.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !crate::magnitude::out_of_range(m) {
+        return *f;
+    }
+    let [a, b] = crate::magnitude::factors(m);
+    f.map(|v| {
+        let w = v * a * b;
+        if w == 0.0 && v != 0.0 {
+            f64::from_bits(1).copysign(v)
+        } else {
+            w
+        }
+    })
 }
 
 /// Whether two cell edges lie on a common face (a diagonal between their
@@ -616,10 +644,11 @@ fn disk(f: &[f64; 8], l: &[u8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut
         }
     }
     let c = 12 + extra.len() as u8;
+    let g = unit_scaled(f);
     extra.push(if pinch {
-        fan_centre(f, l)
+        fan_centre(&g, l)
     } else {
-        interior_point(f, l)
+        interior_point(&g, l)
     });
     for k in 0..n {
         out.push([c, l[k], l[(k + 1) % n]]);
