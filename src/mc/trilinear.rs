@@ -584,14 +584,21 @@ fn with_headroom(f: &[f64; 8]) -> Option<[f64; 8]> {
     if f.iter().all(|v| v.abs() <= HEADROOM_LIMIT) {
         return None;
     }
-    Some(f.map(|v| {
-        let w = v * HEADROOM_SCALE;
+    Some(scaled_keeping_signs(f, [HEADROOM_SCALE, 1.0]))
+}
+
+/// `f` times the product of `factors` (powers of two), a value the scaling
+/// rounds to zero kept as the least subnormal of its sign (its corner's
+/// side must not change).
+fn scaled_keeping_signs(f: &[f64; 8], [a, b]: [f64; 2]) -> [f64; 8] {
+    f.map(|v| {
+        let w = v * a * b;
         if w == 0.0 && v != 0.0 {
             f64::from_bits(1).copysign(v)
         } else {
             w
         }
-    }))
+    })
 }
 
 /// `f` times a power of two that brings its largest magnitude into
@@ -608,15 +615,7 @@ fn unit_scaled(f: &[f64; 8]) -> [f64; 8] {
     if !crate::magnitude::out_of_range(m) {
         return *f;
     }
-    let [a, b] = crate::magnitude::factors(m);
-    f.map(|v| {
-        let w = v * a * b;
-        if w == 0.0 && v != 0.0 {
-            f64::from_bits(1).copysign(v)
-        } else {
-            w
-        }
-    })
+    scaled_keeping_signs(f, crate::magnitude::factors(m))
 }
 
 /// Whether two cell edges lie on a common face (a diagonal between their
