@@ -128,8 +128,9 @@ pub struct Distance {
 /// points farther than [`MAX_MEASURE_REACH`] cells outside the volume,
 /// triangle indices out of range, `density` outside `1..=1024`, tolerance
 /// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
-/// `[0, 1)`. Runs on `options.threads` threads that are all joined
-/// before it returns.
+/// `[0, 1)`. Runs on the calling thread and the library's kept helper
+/// threads, `options.threads` in all (see [`MeasureOptions::threads`]);
+/// the result does not depend on how many.
 pub fn measure(
     volume: &Volume<'_>,
     isovalue: f64,

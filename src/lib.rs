@@ -96,7 +96,7 @@ pub const MAX_LEVEL_LIMIT: u32 = 10;
 /// Refinement never takes the output past this many triangles, whatever
 /// the options, which bounds the memory a tiny epsilon with a high max
 /// level can take (about 64 bytes per triangle with its share of points:
-/// some 16 GiB at the cap; with less memory, set
+/// some 16 GB (15 GiB) at the cap; with less memory, set
 /// [`Options::max_triangles`]). Refinement stops at the highest level that
 /// fits, like a caller's cap; the Marching Cubes triangles are always
 /// kept, so a volume whose plain Marching Cubes surface is larger still

@@ -400,8 +400,9 @@ options:
                         cells), measured independently of the refinement
                         (certified to 1e-5 cells + 2 %)
       --measure-density D
-                        sample points per triangle edge for --measure,
-                        1..64: (D+1)(D+2)/2 points per triangle (default 3;
+                        subdivisions per triangle edge for --measure
+                        (D+1 points on an edge), 1..64: (D+1)(D+2)/2
+                        points per triangle (default 3;
                         lower it for large surfaces; 1 measures only the
                         vertices, which every contour filter puts on S_K)
   -q, --quiet           print nothing but errors
