@@ -646,9 +646,16 @@ int main(int argc, char* argv[])
           auto text = [](const pmcapp::Distance& m, const std::string& who) {
             // An empty surface has no distance: say so rather than print
             // zeros that read like a perfect result.
-            if (m.Triangles == 0 || m.Samples == 0)
+            if (m.Triangles == 0)
             {
               return "no triangles to measure (" + who + ")";
+            }
+            if (m.Samples == 0)
+            {
+              // Every point unresolved: the data have no finite cells on
+              // the isovalue.
+              return "no isosurface to measure against (" + who + ", " +
+                pmcapp::Grouped(m.Unresolved) + " points unresolved)";
             }
             std::string t = "max " + pmcapp::Fixed(m.Max, 5) + ", mean " +
               pmcapp::Fixed(m.Mean, 5) + " cells (" + who + ", " + pmcapp::Grouped(m.Samples) +
