@@ -45,3 +45,32 @@ def test_install_and_import(tmp_path):
     for name in ("LICENSE-MIT", "LICENSE-APACHE"):
         installed = prefix / "share" / "licenses" / "PreciseMCVTK" / name
         assert installed.read_bytes() == (ROOT / name).read_bytes(), name
+
+
+def _build_consumer(tmp_path, name, package_args):
+    """Configures, builds and runs tests/vtk_consumer; returns its output."""
+    binary = tmp_path / name
+    subprocess.run(["cmake", "-S", str(ROOT / "tests" / "vtk_consumer"), "-B", str(binary)]
+                   + package_args, check=True, capture_output=True, text=True)
+    subprocess.run(["cmake", "--build", str(binary)], check=True, capture_output=True,
+                   text=True)
+    run = subprocess.run([str(binary / "vtk_consumer")], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run.stdout
+
+
+@pytest.mark.skipif(_build_dir() is None or shutil.which("cmake") is None,
+                    reason="no configured build/vtk")
+def test_cpp_consumers_find_the_package_installed_and_in_the_build_tree(tmp_path):
+    """find_package(PreciseMCVTK 0.1) and PreciseMC::FiltersPrecise work from
+    an install prefix and from the build tree (whose package file once
+    looked for the module's targets beside itself, where they were not)."""
+    build = _build_dir()
+    prefix = tmp_path / "prefix"
+    subprocess.run(["cmake", "--install", str(build), "--prefix", str(prefix)], check=True,
+                   stdout=subprocess.DEVNULL)
+    installed = _build_consumer(tmp_path, "installed", [f"-DCMAKE_PREFIX_PATH={prefix}"])
+    packages = list(build.glob("lib*/cmake/PreciseMCVTK"))
+    assert len(packages) == 1, packages
+    in_tree = _build_consumer(tmp_path, "tree", [f"-DPreciseMCVTK_DIR={packages[0]}"])
+    assert installed == in_tree and "triangles" in installed
