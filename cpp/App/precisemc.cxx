@@ -269,9 +269,11 @@ bool NeedsDoublePoints(vtkImageData* volume, double epsilon)
 void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels)
 {
   vtkImageData* volume = vtkImageData::SafeDownCast(f->GetInputDataObject(0, 0));
+  // DEFAULT rather than SINGLE: float unless the filter's own rule finds
+  // it cannot tell the cells' points apart (then double, not a warning).
   f->SetOutputPointsPrecision(volume && NeedsDoublePoints(volume, o.Epsilon)
       ? vtkAlgorithm::DOUBLE_PRECISION
-      : vtkAlgorithm::SINGLE_PRECISION);
+      : vtkAlgorithm::DEFAULT_PRECISION);
   f->SetEpsilon(o.Epsilon);
   f->SetMaxLevel(o.MaxLevel);
   f->SetRule(o.Rule);

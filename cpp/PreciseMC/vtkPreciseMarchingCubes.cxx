@@ -999,8 +999,37 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     output->Initialize();
     return 1;
   }
-  const bool doublePoints =
-    this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION || floatOverflows;
+  // Float points can also be too coarse: a cell whose side is below
+  // float's least normal number (a spacing of 1e-200), or spans fewer
+  // float steps at the largest coordinate than refinement's finest level
+  // divides it into (an origin of 1e7 with unit spacing), puts distinct
+  // points on one float. DEFAULT_PRECISION then gives double points too;
+  // SINGLE_PRECISION warns.
+  double smallestCell = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 3; ++c)
+  {
+    double side = std::fabs(spacing[c]);
+    if (!axisAligned)
+    {
+      side = std::sqrt(indexToWorld[0][c] * indexToWorld[0][c] +
+        indexToWorld[1][c] * indexToWorld[1][c] + indexToWorld[2][c] * indexToWorld[2][c]);
+    }
+    smallestCell = std::min(smallestCell, side);
+  }
+  const double floatStep = worldMax * std::ldexp(1.0, -23); // float's spacing near worldMax
+  const bool floatBlurs = smallestCell < static_cast<double>(std::numeric_limits<float>::min()) ||
+    smallestCell < floatStep * std::ldexp(1.0, std::max(0, this->MaxLevel));
+  if (floatBlurs && !floatOverflows &&
+    this->OutputPointsPrecision == vtkAlgorithm::SINGLE_PRECISION)
+  {
+    vtkWarningMacro(<< "Single-precision points cannot tell this input's cells apart (a cell "
+                    << smallestCell << " wide at coordinates up to " << worldMax
+                    << "): distinct points will coincide; set OutputPointsPrecision to "
+                       "DOUBLE_PRECISION or DEFAULT_PRECISION");
+  }
+  const bool doublePoints = this->OutputPointsPrecision == vtkAlgorithm::DOUBLE_PRECISION ||
+    floatOverflows ||
+    (floatBlurs && this->OutputPointsPrecision == vtkAlgorithm::DEFAULT_PRECISION);
 
   // The first sample read (of the contoured extent, or of its ghost layer),
   // as a value index.

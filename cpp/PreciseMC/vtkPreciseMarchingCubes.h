@@ -205,7 +205,9 @@ public:
   /**
    * Set/Get the computation of point normals (unit vectors pointing towards
    * lower scalar values, like vtkMarchingCubes). How they are computed is
-   * set by NormalMode. Default is on.
+   * set by NormalMode. Default is on. (There is no ComputeGradients, as
+   * vtkMarchingCubes and vtkFlyingEdges3D have: no un-normalised gradient
+   * array is produced.)
    */
   vtkSetMacro(ComputeNormals, vtkTypeBool);
   vtkGetMacro(ComputeNormals, vtkTypeBool);
@@ -260,7 +262,10 @@ public:
    * Get a pointer to an array of contour values. There will be
    * GetNumberOfContours() values in the list.
    */
-  double* GetValues() { return this->ContourValues->GetValues(); }
+  double* GetValues() VTK_SIZEHINT(GetNumberOfContours())
+  {
+    return this->ContourValues->GetValues();
+  }
 
   /**
    * Fill a supplied list with contour values. There will be
@@ -317,7 +322,12 @@ public:
    * vtkMarchingCubes), DOUBLE_PRECISION gives the points exactly as
    * computed. Where the input's world coordinates go beyond float's range
    * (about 3.4e38), DEFAULT_PRECISION gives double points and
-   * SINGLE_PRECISION is an error (float points would be infinite).
+   * SINGLE_PRECISION is an error (float points would be infinite). Where
+   * float cannot tell a cell's points apart (a cell side below float's
+   * least normal number, about 1.2e-38, or spanning fewer float steps at
+   * the largest world coordinate than 2^MaxLevel, e.g. an origin of 1e7
+   * with unit spacing), DEFAULT_PRECISION gives double points too and
+   * SINGLE_PRECISION warns.
    */
   vtkSetClampMacro(OutputPointsPrecision, int, SINGLE_PRECISION, DEFAULT_PRECISION);
   vtkGetMacro(OutputPointsPrecision, int);

@@ -517,10 +517,58 @@ def test_coordinates_beyond_float_give_double_points_or_an_error():
         f.Update()
         assert errors.errors and "single precision" in errors.errors[-1], errors.errors
         assert f.GetOutput().GetNumberOfPoints() == 0
-    # Within float's range the default stays float.
+    # Within float's range, with cells float can tell apart, the default
+    # stays float.
     image.SetOrigin(1e30, 0.0, 0.0)
+    image.SetSpacing(1e25, 1e25, 1e25)
     default = precise(image, [150.0], OutputPointsPrecision=2).GetOutput()
     assert default.GetPoints().GetDataType() == 10  # VTK_FLOAT
+
+
+def test_cells_float_cannot_tell_apart_give_double_points_or_a_warning():
+    # A cell side below float's least normal number (all points were one
+    # float, (0, 0, 0)), or too few float steps across a cell at the
+    # largest coordinate for refinement's finest level (origin 1e7, unit
+    # spacing: 1 float step is 1, a level-5 point 1/32 cell apart): the
+    # default gives double points, the same surface as at a plain scale;
+    # single precision warns and gives float.
+    reference = precise(wavelet(10), [150.0]).GetOutput()
+    want = points(reference)
+    assert reference.GetNumberOfPolys() > 100
+    for origin, spacing in (((0.0, 0.0, 0.0), 1e-200), ((1e7, -3e6, 0.0), 1.0)):
+        image = wavelet(10)
+        image.SetOrigin(*origin)
+        image.SetSpacing(spacing, spacing, spacing)
+        for direction in ((1, 0, 0, 0, 1, 0, 0, 0, 1), (0, 1, 0, 1, 0, 0, 0, 0, 1)):
+            image.SetDirectionMatrix(*direction)
+            g = precise(image, [150.0], OutputPointsPrecision=2)  # DEFAULT_PRECISION
+            out = g.GetOutput()
+            assert out.GetPoints().GetDataType() == 11, (origin, spacing)  # VTK_DOUBLE
+            got = (points(out) - np.array(origin)) / spacing
+            got = got[:, [1, 0, 2]] if direction[1] else got
+            assert out.GetNumberOfPolys() == reference.GetNumberOfPolys()
+            # Each output point at its place in the plain-scale surface.
+            assert np.allclose(np.sort(got, axis=0), np.sort(want, axis=0), atol=1e-6)
+            f = vtkPreciseMarchingCubes()
+            f.SetInputData(image)
+            f.SetValue(0, 150.0)
+            f.SetOutputPointsPrecision(0)  # SINGLE_PRECISION
+            errors = ErrorObserver(f)
+            f.Update()
+            assert not errors.errors, errors.errors
+            assert errors.warnings and "cannot tell" in errors.warnings[-1], errors.warnings
+            assert f.GetOutput().GetPoints().GetDataType() == 10  # VTK_FLOAT
+    # An everyday volume: float, no warning.
+    image = wavelet(10)
+    image.SetOrigin(-120.0, 35.5, 1000.0)
+    image.SetSpacing(0.3, 0.3, 1.25)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 150.0)
+    errors = ErrorObserver(f)
+    f.Update()
+    assert not errors.errors and not errors.warnings
+    assert f.GetOutput().GetPoints().GetDataType() == 10  # VTK_FLOAT
 
 
 def test_thread_count_is_clamped_to_the_library_limit():
@@ -1310,3 +1358,12 @@ def test_cells_on_subcells_are_counted():
     assert r.GetOutput().GetNumberOfPolys() > 0
     m = precise(image_from_array(values), [0.0], Epsilon=0.0)
     assert m.GetNumberOfCellsOnSubcells() == 0
+
+
+def test_contour_values_read_back_as_a_tuple():
+    # GetValues() gives the values in Python (it gave a pointer's name).
+    f = vtkPreciseMarchingCubes()
+    f.SetValue(0, 1.5)
+    f.SetValue(1, 2.5)
+    f.GenerateValues(3, 10.0, 30.0)
+    assert tuple(f.GetValues()) == (10.0, 20.0, 30.0)
