@@ -1590,7 +1590,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     // each other without welding: a triangle with no area
                     // means this attempt's nearest splits are undone.
                     let slivered = sliver && out.counters.nearest_splits != nearest_before;
-                    if count_only
+                    // The soundness check's edge map could not grow.
+                    let mut check_failed = 0;
+                    let accept = count_only
                         || attempt == ATTEMPTS - 1
                         || !refinable.interior
                         || (!slivered
@@ -1606,14 +1608,23 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                                         &pos_of,
                                         &mut edges,
                                     )
+                                    .unwrap_or_else(|bytes| {
+                                        check_failed = bytes;
+                                        true
+                                    })
                             } else {
                                 debug_assert!(
-                                    soundly_connected(&out.tris[t_start..], &mut edges),
+                                    soundly_connected(&out.tris[t_start..], &mut edges)
+                                        != Ok(false),
                                     "a patch without merged points is a subdivision"
                                 );
                                 faces_like_marching_cubes(area, &pos_of)
-                            })
-                    {
+                            });
+                    if check_failed != 0 {
+                        out.scratch_failed = check_failed;
+                        break 'layers;
+                    }
+                    if accept {
                         break;
                     }
                     drop_patch(&mut out, &mut map, &mut local, t_start, v_start);

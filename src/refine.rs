@@ -354,27 +354,32 @@ pub(crate) fn shared_fixed_axes(a: DVec3, b: DVec3) -> u8 {
 /// Refinement can break these where straight gradient lines from different
 /// sample points meet on `S_K`, or where it turns a tiny patch inside out;
 /// the caller then refines the cell again without interior splits.
+/// `Err(bytes)` when `edges` cannot grow (see [`soundly_connected`]).
 pub(crate) fn sound_patch(
     origin: DVec3,
     tris: &[[u32; 3]],
     verts: &[DVec3],
     mc_pos: &[DVec3],
     edges: &mut FlatMap<u32>,
-) -> bool {
-    if !soundly_connected(tris, edges) {
-        return false;
+) -> Result<bool, usize> {
+    if !soundly_connected(tris, edges)? {
+        return Ok(false);
     }
     let mut area = DVec3::ZERO;
     for t in tris {
         area += vector_area(t.map(|v| verts[v as usize] - origin));
     }
-    faces_like_marching_cubes(area, mc_pos)
+    Ok(faces_like_marching_cubes(area, mc_pos))
 }
 
 /// The combinatorial half of [`sound_patch`]: no corner repeated, no two
 /// triangles on the same corners, every edge used at most once in each
-/// direction. `edges` is scratch.
-pub(crate) fn soundly_connected(tris: &[[u32; 3]], edges: &mut FlatMap<u32>) -> bool {
+/// direction. `edges` is scratch; `Err(bytes)` when it cannot grow (a
+/// patch refined deep holds millions of edges).
+pub(crate) fn soundly_connected(
+    tris: &[[u32; 3]],
+    edges: &mut FlatMap<u32>,
+) -> Result<bool, usize> {
     // Each directed edge, packed into a word, maps to the third corner of
     // its triangle: a second triangle on the same corners either repeats a
     // directed edge (same winding) or holds the reverse of one with the
@@ -382,16 +387,17 @@ pub(crate) fn soundly_connected(tris: &[[u32; 3]], edges: &mut FlatMap<u32>) -> 
     edges.clear();
     for t in tris {
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-            return false;
+            return Ok(false);
         }
         for e in 0..3 {
             let (a, b, c) = (t[e] as u64, t[(e + 1) % 3] as u64, t[(e + 2) % 3]);
-            if edges.insert_new(a << 32 | b, c).is_some() || edges.get(b << 32 | a) == Some(c) {
-                return false;
+            if edges.try_insert_new(a << 32 | b, c)?.is_some() || edges.get(b << 32 | a) == Some(c)
+            {
+                return Ok(false);
             }
         }
     }
-    true
+    Ok(true)
 }
 
 /// Twice the vector area of a triangle.

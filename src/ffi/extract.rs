@@ -43,11 +43,11 @@ pub(super) fn failure(e: Error) -> Failure {
 ///   running every task (see `pmc_options_set_executor`);
 /// - `PMC_STATUS_ABORTED` if the progress callback asked to stop;
 /// - `PMC_STATUS_OUT_OF_MEMORY` if a memory reservation failed (the
-///   output's, a slab's buffers as refinement fills them, a cell's patch
-///   and its edge decisions however deep it refines). A few smaller
-///   allocations (the soundness check of a refined patch, a stalled
-///   cell's sub-cells, small buffers) still abort the process when they
-///   fail (README, Limitations). Cap the output with
+///   output's, a slab's buffers as refinement fills them, a cell's patch,
+///   its edge decisions and its soundness check however deep it refines).
+///   A few smaller allocations (a stalled cell's sub-cells, small buffers)
+///   still abort the process when they fail (README, Limitations). Cap the
+///   output with
 ///   `pmc_options_set_max_triangles` where memory is tight. (Worker
 ///   threads that cannot be started, for a process's limit on threads,
 ///   are no error: their share runs on the threads that did start, the
