@@ -29,6 +29,19 @@ def precise(image, values, **props):
     return f
 
 
+def observed_run(image, precision=None):
+    """The filter run at 150.0 on `image` (output points of `precision`, if
+    given) and the ErrorObserver that watched it."""
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    f.SetValue(0, 150.0)
+    if precision is not None:
+        f.SetOutputPointsPrecision(precision)
+    errors = ErrorObserver(f)
+    f.Update()
+    return f, errors
+
+
 def marching_cubes(image, values):
     mc = vtkMarchingCubes()
     mc.SetInputData(image)
@@ -509,12 +522,7 @@ def test_coordinates_beyond_float_give_double_points_or_an_error():
         assert out.GetNumberOfPolys() > 100
         assert out.GetPoints().GetDataType() == 11  # VTK_DOUBLE
         assert np.isfinite(points(out)).all()
-        f = vtkPreciseMarchingCubes()
-        f.SetInputData(image)
-        f.SetValue(0, 150.0)
-        f.SetOutputPointsPrecision(0)  # SINGLE_PRECISION
-        errors = ErrorObserver(f)
-        f.Update()
+        f, errors = observed_run(image, 0)  # SINGLE_PRECISION
         assert errors.errors and "single precision" in errors.errors[-1], errors.errors
         assert f.GetOutput().GetNumberOfPoints() == 0
     # Within float's range, with cells float can tell apart, the default
@@ -549,12 +557,7 @@ def test_cells_float_cannot_tell_apart_give_double_points_or_a_warning():
             assert out.GetNumberOfPolys() == reference.GetNumberOfPolys()
             # Each output point at its place in the plain-scale surface.
             assert np.allclose(np.sort(got, axis=0), np.sort(want, axis=0), atol=1e-6)
-            f = vtkPreciseMarchingCubes()
-            f.SetInputData(image)
-            f.SetValue(0, 150.0)
-            f.SetOutputPointsPrecision(0)  # SINGLE_PRECISION
-            errors = ErrorObserver(f)
-            f.Update()
+            f, errors = observed_run(image, 0)  # SINGLE_PRECISION
             assert not errors.errors, errors.errors
             assert errors.warnings and "cannot tell" in errors.warnings[-1], errors.warnings
             assert f.GetOutput().GetPoints().GetDataType() == 10  # VTK_FLOAT
@@ -562,11 +565,7 @@ def test_cells_float_cannot_tell_apart_give_double_points_or_a_warning():
     image = wavelet(10)
     image.SetOrigin(-120.0, 35.5, 1000.0)
     image.SetSpacing(0.3, 0.3, 1.25)
-    f = vtkPreciseMarchingCubes()
-    f.SetInputData(image)
-    f.SetValue(0, 150.0)
-    errors = ErrorObserver(f)
-    f.Update()
+    f, errors = observed_run(image)
     assert not errors.errors and not errors.warnings
     assert f.GetOutput().GetPoints().GetDataType() == 10  # VTK_FLOAT
 
