@@ -22,6 +22,7 @@ import json
 import math
 import os
 import platform
+import random
 import statistics
 import struct
 import subprocess
@@ -295,8 +296,13 @@ def interleaved(cfg):
     """The small volumes' speed comparison in one process: vtkFlyingEdges3D
     (TBB) and PreciseMC with refinement off, each one pipeline kept for
     all calls (as an application that contours again and again), called
-    in turn round after round (the order rotating), so that a neighbour's
-    burst on the shared machine slows every filter of a round alike.
+    in turn round after round, so that a neighbour's burst on the shared
+    machine slows every filter of a round alike. Each round's order is
+    shuffled (fixed seed): a call's time depends on the call before it
+    (the library's helper threads still watching for work, caches), and
+    a rotating order kept the same neighbours in every round (Marschner-Lobb
+    classic on 2 threads ran at 1.72x FlyingEdges after it, 1.27-1.34x
+    after trilinear).
     Returns each filter's median time and the median over rounds of its
     time over FlyingEdges' in the same round. Runs in `worker`, on the TBB
     backend it sets up with the configuration's threads."""
@@ -304,8 +310,10 @@ def interleaved(cfg):
     filters = [(label, build(dict(cfg, **extra), img, cfg["iso"])) for label, extra in INTERLEAVED]
     times = {label: [] for label, _ in filters}
     warmup = INTERLEAVED_WARMUP
+    order = random.Random(7)
     for k in range(warmup + cfg["rounds"]):
-        turn = filters[k % len(filters):] + filters[:k % len(filters)]
+        turn = list(filters)
+        order.shuffle(turn)
         for label, f in turn:
             f.Modified()
             t0 = time.perf_counter()
@@ -378,8 +386,12 @@ RESULT_KEYS = ("time", "time_min", "times", "time_cold", "times_cold", "tris", "
 
 
 def run_worker(cfg, env):
-    r = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(cfg)],
-                       capture_output=True, text=True, env=env, timeout=900)
+    try:
+        r = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(cfg)],
+                           capture_output=True, text=True, env=env, timeout=900)
+    except subprocess.TimeoutExpired:
+        # One configuration's row, not the whole run.
+        return dict(cfg, error="timed out after 900 s")
     if r.returncode != 0:
         return dict(cfg, error=(r.stderr.strip().splitlines() or ["exit %d" % r.returncode])[-1])
     return json.loads(r.stdout.strip().splitlines()[-1])
@@ -599,7 +611,10 @@ def verify_maxima(results, env):
 
 
 def fmt_t(s):
-    return f"{s * 1000:.1f}" if s < 10 else f"{s * 1000:.0f}"
+    # Milliseconds; three decimals below 10 ms (a small volume's call is
+    # 0.1-2 ms: one decimal hid the differences the ratios show).
+    ms = s * 1000
+    return f"{ms:.3f}" if ms < 10 else (f"{ms:.1f}" if s < 10 else f"{ms:.0f}")
 
 
 def machine():
@@ -657,7 +672,10 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, 
         "worker process minus its peak after loading the volume. Distances are measured by "
         "`pmc_measure_distance` against S_K of the ORIGINAL volume, in cells, at density 3 "
         "(10 points per triangle), on every k-th triangle when there are more than "
-        f"{MEASURE_CAP} (column `measured`): the max over a subset is a lower bound of the true max. "
+        f"{5000 if quick else MEASURE_CAP} (column `measured`): the max over a subset is a lower "
+        "bound of the true max, and so is the max over the 10 points of each triangle (at density "
+        "8 a review measured maxima 4-17 % higher, means 20-27 % higher: three of the 10 points "
+        "are vertices, on S_K for every filter). "
         "The upsampled surfaces are measured over all their triangles (outside the quick mode). "
         "Upsampling: `vtkImageResample` (linear, float output) by the factor on each axis, "
         "then `vtkFlyingEdges3D`, both with 2 threads; time includes the resampling. "
