@@ -128,7 +128,8 @@ pub struct Distance {
 /// points farther than [`MAX_MEASURE_REACH`] cells outside the volume,
 /// triangle indices out of range, `density` outside `1..=1024`, tolerance
 /// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
-/// `[0, 1)`. Runs on the calling thread and the library's kept helper
+/// `[0, 1)`; [`Error::OutOfMemory`] when the copy of the points (24 bytes
+/// each) cannot be allocated. Runs on the calling thread and the library's kept helper
 /// threads, `options.threads` in all (see [`MeasureOptions::threads`]);
 /// the result does not depend on how many.
 pub fn measure(
@@ -172,10 +173,14 @@ pub fn measure(
         options.threads.min(crate::MAX_THREADS)
     };
     let off = volume.index_offset.map(|o| o as f64);
-    let local: Vec<DVec3> = points
-        .iter()
-        .map(|p| DVec3::new(p[0] - off[0], p[1] - off[1], p[2] - off[2]))
-        .collect();
+    // A copy as large as the caller's points: reserved fallibly.
+    let mut local: Vec<DVec3> = Vec::new();
+    crate::memory::reserve(&mut local, points.len())?;
+    local.extend(
+        points
+            .iter()
+            .map(|p| DVec3::new(p[0] - off[0], p[1] - off[1], p[2] - off[2])),
+    );
     let last = volume.dims.map(|n| n.saturating_sub(1) as f64);
     if local.iter().any(|q| {
         (0..3).any(|a| !(q[a] >= -MAX_MEASURE_REACH && q[a] <= last[a] + MAX_MEASURE_REACH))
