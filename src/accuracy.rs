@@ -129,9 +129,9 @@ pub struct Distance {
 /// triangle indices out of range, `density` outside `1..=1024`, tolerance
 /// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
 /// `[0, 1)`; [`Error::OutOfMemory`] when the copy of the points (24 bytes
-/// each) cannot be allocated. Runs on the calling thread and the library's kept helper
-/// threads, `options.threads` in all (see [`MeasureOptions::threads`]);
-/// the result does not depend on how many.
+/// each) cannot be allocated. Runs on the calling thread and the
+/// library's kept helper threads, `options.threads` in all (see
+/// [`MeasureOptions::threads`]); the result does not depend on how many.
 pub fn measure(
     volume: &Volume<'_>,
     isovalue: f64,
