@@ -7,10 +7,11 @@
 //! [`crate::extract`] takes one of the filters
 //! [`crate::Reconstruction`] names, and a filter implemented outside the
 //! crate serves [`crate::project`]'s functions (projection, the epsilon
-//! test, edge crossings), not an extraction. A filter must be *face-consistent*: on a face shared by
-//! two cells, both cells must return bit-identical values and bit-identical
-//! gradient components along the face, so that split points on shared
-//! faces are identical from both sides (crack-free, piece-independent).
+//! test, edge crossings), not an extraction. A filter must be
+//! *face-consistent*: on a face shared by two cells, both cells must return
+//! bit-identical values and bit-identical gradient components along the
+//! face, so that split points on shared faces are identical from both sides
+//! (crack-free, piece-independent).
 
 use glam::DVec3;
 

@@ -129,6 +129,7 @@ impl<V: Copy + Default> FlatMap<V> {
             len: 0,
             shift: self.shift - 1,
         };
+        // (The same table as `with_log2_capacity` makes, allocated fallibly.)
         let old = std::mem::replace(self, fresh);
         for (g, k, v) in old.slots {
             if g == old.generation {
@@ -138,15 +139,16 @@ impl<V: Copy + Default> FlatMap<V> {
         Ok(())
     }
 
-    /// Doubles the table, keeping the entries.
+    /// Doubles the table, keeping the entries; a failed allocation ends
+    /// the process, as a `Vec`'s does.
     #[cold]
     fn grow(&mut self) {
-        let bits = 64 - self.shift + 1;
-        let old = std::mem::replace(self, Self::with_log2_capacity(bits));
-        for (g, k, v) in old.slots {
-            if g == old.generation {
-                self.insert_new(k, v);
-            }
+        if self.try_grow().is_err() {
+            let n = 1usize << (64 - self.shift + 1);
+            std::alloc::handle_alloc_error(
+                std::alloc::Layout::array::<(u32, u64, V)>(n)
+                    .unwrap_or_else(|_| std::alloc::Layout::new::<(u32, u64, V)>()),
+            );
         }
     }
 }
