@@ -48,6 +48,7 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <vector>
@@ -732,12 +733,76 @@ void CheckVtiGeometry(const std::string& path)
   }
 }
 
-// A .vti whose uncompressed raw appended data was cut short: VTK 9.1's
-// reader fills the missing values with zeros and reports nothing. Each
-// array's block (a byte count of header_type, then the bytes) must end
-// within the file, before its closing </AppendedData> if it has one.
-// (Compressed and base64 data are not looked at here.)
-void CheckAppendedRawData(const std::string& path)
+// The bytes that base64 `text` (whitespace ignored) starts with, at most
+// `bytes` of them; fewer where the text ends, pads or is not base64.
+std::string Base64Prefix(const std::string& text, size_t bytes)
+{
+  std::string out;
+  unsigned bits = 0;
+  int held = 0;
+  for (char c : text)
+  {
+    if (out.size() >= bytes || c == '=')
+    {
+      break;
+    }
+    if (std::isspace(static_cast<unsigned char>(c)))
+    {
+      continue;
+    }
+    const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    const char* at = std::strchr(digits, c);
+    if (!at || c == '\0')
+    {
+      break;
+    }
+    bits = (bits << 6) | static_cast<unsigned>(at - digits);
+    held += 6;
+    if (held >= 8)
+    {
+      held -= 8;
+      out.push_back(static_cast<char>((bits >> held) & 0xff));
+    }
+  }
+  return out;
+}
+
+// The byte count in an uncompressed block's header (header_type's size,
+// the file's byte order); false when `header` is shorter.
+bool BlockByteCount(const std::string& header, int headerSize, bool bigEndian,
+  unsigned long long& count)
+{
+  if (header.size() < static_cast<size_t>(headerSize))
+  {
+    return false;
+  }
+  count = 0;
+  for (int b = 0; b < headerSize; ++b)
+  {
+    count |= static_cast<unsigned long long>(static_cast<unsigned char>(
+               header[static_cast<size_t>(bigEndian ? headerSize - 1 - b : b)]))
+      << (8 * b);
+  }
+  return true;
+}
+
+// The base64 characters of an uncompressed block of `count` bytes: VTK 9.1
+// encodes the header and the data as one stream (a 40^3 float array with a
+// UInt32 header is 4 * ceil(256004 / 3) characters, not the header's 8 plus
+// the data's), padded at its end. A header encoded on its own, padded, as
+// compressed blocks have it, needs more: a file written so passes too.
+unsigned long long Base64BlockSize(int headerSize, unsigned long long count)
+{
+  return (static_cast<unsigned long long>(headerSize) + count + 2) / 3 * 4;
+}
+
+// A .vti whose uncompressed appended data was cut short: VTK 9.1's reader
+// fills the missing values with zeros or garbage and reports nothing. Each
+// array's block (a byte count of header_type, then the bytes; base64
+// encoded as one stream with encoding="base64") must end within the file,
+// before its closing </AppendedData> if it has one. (Compressed data is
+// not looked at here: its reader fails on a cut block.)
+void CheckAppendedData(const std::string& path)
 {
   // The XML part comes first and is small; the appended data follows the
   // '_' after <AppendedData ...>.
@@ -755,9 +820,11 @@ void CheckAppendedRawData(const std::string& path)
   }
   const std::string vtkFile = head.substr(fileTag, head.find('>', fileTag) - fileTag);
   const size_t appendedEnd = head.find('>', appended);
-  if (appendedEnd == std::string::npos ||
-    XmlAttribute(head.substr(appended, appendedEnd - appended), "encoding") != "raw" ||
-    !XmlAttribute(vtkFile, "compressor").empty())
+  const std::string encoding = appendedEnd == std::string::npos
+    ? std::string()
+    : XmlAttribute(head.substr(appended, appendedEnd - appended), "encoding");
+  const bool base64 = encoding == "base64";
+  if ((encoding != "raw" && !base64) || !XmlAttribute(vtkFile, "compressor").empty())
   {
     return;
   }
@@ -769,6 +836,8 @@ void CheckAppendedRawData(const std::string& path)
   const unsigned long long dataStart = underscore + 1;
   const int headerSize = XmlAttribute(vtkFile, "header_type") == "UInt64" ? 8 : 4;
   const bool bigEndian = XmlAttribute(vtkFile, "byte_order") == "BigEndian";
+  // The characters of an encoded header, and the bytes they decode to.
+  const int headerChars = (headerSize + 2) / 3 * 4;
   in.clear();
   in.seekg(0, std::ios::end);
   unsigned long long fileSize = static_cast<unsigned long long>(in.tellg());
@@ -797,26 +866,109 @@ void CheckAppendedRawData(const std::string& path)
     }
     const unsigned long long offset = std::strtoull(offsetText.c_str(), nullptr, 10);
     const unsigned long long block = dataStart + offset;
-    unsigned char bytes[8] = { 0 };
-    bool complete = block + headerSize <= fileSize;
+    const int stored = base64 ? headerChars : headerSize;
+    std::string header(static_cast<size_t>(stored), '\0');
+    unsigned long long count = 0;
+    bool complete = block + stored <= fileSize;
     if (complete)
     {
       in.seekg(static_cast<std::streamoff>(block));
-      in.read(reinterpret_cast<char*>(bytes), headerSize);
-      unsigned long long count = 0;
-      for (int b = 0; b < headerSize; ++b)
-      {
-        count |= static_cast<unsigned long long>(bytes[bigEndian ? headerSize - 1 - b : b])
-          << (8 * b);
-      }
-      complete = in.gcount() == headerSize && count <= fileSize &&
-        block + headerSize + count <= fileSize;
+      in.read(&header[0], stored);
+      complete = in.gcount() == stored &&
+        BlockByteCount(base64 ? Base64Prefix(header, headerSize) : header, headerSize,
+          bigEndian, count) &&
+        count <= fileSize;
+      in.clear();
+    }
+    if (complete)
+    {
+      const unsigned long long size =
+        base64 ? Base64BlockSize(headerSize, count) : headerSize + count;
+      complete = block + size <= fileSize;
     }
     if (!complete)
     {
       Unreadable(path,
         "the appended data of array '" + XmlAttribute(tag, "Name") +
           "' ends past the end of the file (is the file complete?)");
+    }
+  }
+}
+
+// A .vti whose uncompressed inline binary (base64) DataArray holds fewer
+// characters than its header's byte count needs (cut short, the element
+// closed again): VTK 9.1's reader reads on into the closing tag and fills
+// the rest with garbage, without a word. The file is read through once,
+// up to any <AppendedData> (raw bytes follow it).
+void CheckInlineBinaryData(const std::string& path)
+{
+  const std::string head = FileHead(path, 1 << 16);
+  const size_t fileTag = head.find("<VTKFile");
+  if (fileTag == std::string::npos || head.find("format=\"binary\"") == std::string::npos)
+  {
+    return;
+  }
+  const std::string vtkFile = head.substr(fileTag, head.find('>', fileTag) - fileTag);
+  if (!XmlAttribute(vtkFile, "compressor").empty())
+  {
+    return;
+  }
+  const int headerSize = XmlAttribute(vtkFile, "header_type") == "UInt64" ? 8 : 4;
+  const bool bigEndian = XmlAttribute(vtkFile, "byte_order") == "BigEndian";
+  const size_t headerChars = static_cast<size_t>((headerSize + 2) / 3 * 4);
+  std::ifstream in(path, std::ios::binary);
+  std::istreambuf_iterator<char> it(in), end;
+  while (it != end)
+  {
+    if (*it++ != '<')
+    {
+      continue;
+    }
+    std::string tag;
+    while (it != end && *it != '>')
+    {
+      tag.push_back(*it++);
+    }
+    if (it != end)
+    {
+      ++it;
+    }
+    if (tag.compare(0, 12, "AppendedData") == 0)
+    {
+      return;
+    }
+    if (tag.compare(0, 9, "DataArray") != 0 || XmlAttribute(tag, "format") != "binary" ||
+      (!tag.empty() && tag.back() == '/'))
+    {
+      continue;
+    }
+    // The element's text: its characters (whitespace aside) and the first
+    // ones, which hold the header.
+    std::string start;
+    unsigned long long chars = 0;
+    for (; it != end && *it != '<'; ++it)
+    {
+      if (!std::isspace(static_cast<unsigned char>(*it)))
+      {
+        ++chars;
+        if (start.size() < headerChars)
+        {
+          start.push_back(*it);
+        }
+      }
+    }
+    unsigned long long count = 0;
+    const bool hasHeader =
+      BlockByteCount(Base64Prefix(start, static_cast<size_t>(headerSize)), headerSize, bigEndian,
+        count);
+    const unsigned long long need =
+      hasHeader ? Base64BlockSize(headerSize, count) : headerChars;
+    if (!hasHeader || chars < need)
+    {
+      Unreadable(path,
+        "the binary data of array '" + XmlAttribute(tag, "Name") + "' is " +
+          std::to_string(chars) + " base64 characters, fewer than the " + std::to_string(need) +
+          " its size needs (is the file complete?)");
     }
   }
 }
@@ -1492,7 +1644,8 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
     if (Extension(path) == ".vti")
     {
       CheckVtiGeometry(path);
-      CheckAppendedRawData(path);
+      CheckAppendedData(path);
+      CheckInlineBinaryData(path);
     }
   }
   else

@@ -640,6 +640,56 @@ def error_corrupt_inputs():
 
 
 @check
+def vti_base64_data_cut_short_is_refused():
+    """Uncompressed base64 data cut short (appended: the file's first two
+    thirds, or all but its last character; inline binary: a third of an
+    array's text taken out, the element closed again) was read with zeros
+    or garbage for the rest, exit status 0. Such files are refused, naming
+    the array; the whole files read, with either header type. VTK encodes
+    a block's header and data as one base64 stream."""
+    d = fresh_dir("vti-base64")
+    dims, _, _, v = blob_volume()
+    out = os.path.join(d, "o.vtp")
+    for header in ("UInt32", "UInt64"):
+        for mode in ("appended", "binary"):
+            w = vtkXMLImageDataWriter()
+            path = os.path.join(d, f"{mode}-{header}.vti")
+            w.SetFileName(path)
+            w.SetInputData(density_image(v, dims, (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)))
+            w.SetCompressorTypeToNone()
+            if mode == "appended":
+                w.SetDataModeToAppended()
+                w.EncodeAppendedDataOn()
+            else:
+                w.SetDataModeToBinary()
+            if header == "UInt64":
+                w.SetHeaderTypeToUInt64()
+            w.Write()
+            ok(path, "-v", "40", "-q", "-o", os.path.join(d, "whole.vtp"))
+            with open(path, "rb") as f:
+                data = f.read()
+            if mode == "appended":
+                last = len(data[: data.rindex(b"</AppendedData>")].rstrip()) - 1
+                cuts = {"two thirds": data[: len(data) * 2 // 3], "a character": data[:last]}
+            else:
+                m = re.search(rb'format="binary"[^>]*>\s*([A-Za-z0-9+/=]+)\s*<', data)
+                expect(m, "no inline base64 text in the written file")
+                text = m.group(1)
+                cuts = {"a third": data[: m.start(1)] + text[: len(text) * 2 // 3] +
+                        data[m.end(1):],
+                        "a character": data[: m.start(1)] + text[:-1] + data[m.end(1):]}
+            for label, cut in cuts.items():
+                bad = os.path.join(d, "cut.vti")
+                with open(bad, "wb") as f:
+                    f.write(cut)
+                try:
+                    expect_error([bad, "-v", "40", "-o", out], "array 'density'", outputs=[out],
+                                 status=1)
+                except Failure as e:
+                    raise Failure(f"{mode} {header} short by {label}: {e}")
+
+
+@check
 def error_not_a_volume():
     d = fresh_dir("err-2d")
     image = vtkImageData()
