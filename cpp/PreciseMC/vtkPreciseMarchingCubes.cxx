@@ -224,6 +224,12 @@ void AdviseHugePages(void* data, size_t bytes)
 #endif
 }
 
+// Whether an extent holds no sample (VTK's empty extent is 0, -1, ...).
+bool IsEmptyExtent(const int extent[6])
+{
+  return extent[0] > extent[1] || extent[2] > extent[3] || extent[4] > extent[5];
+}
+
 // Extent index `i + d`, held to int's range: an extent may reach INT_MAX,
 // and the extents it is compared with lie within that range anyway.
 int ShiftedIndex(int i, int d)
@@ -458,6 +464,7 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   this->NumberOfExecutions = 0;
   this->ResetStatistics();
   this->HasContourExtent = false;
+  this->ContourWholeUnknown = false;
   for (int i = 0; i < 3; ++i)
   {
     this->ContourExtent[2 * i] = VTK_INT_MAX;
@@ -754,6 +761,33 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     {
       inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
     }
+    int piece[6];
+    std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
+    if (this->ContourWholeUnknown)
+    {
+      // No whole extent (RequestUpdateExtent()): the input's extent is
+      // taken for the whole volume and the piece cut from it as it would
+      // have been. Every piece then holds the volume as delivered: cut as
+      // asked by default (a source that ignores pieces gives each the same
+      // volume; without the cut the surface came out once per piece);
+      // WholeInputShare may say otherwise (ParaView's subclass: a volume
+      // on some processes only, or a different one on each).
+      std::copy(dataExtent, dataExtent + 6, whole);
+      if (this->ContourPieces > 1)
+      {
+        vtkNew<vtkExtentTranslator> translator;
+        if (!translator->PieceToExtentThreadSafe(this->ContourPiece, this->ContourPieces, 0,
+              whole, piece, this->ContourSplitMode, 0))
+        {
+          piece[0] = VTK_INT_MAX;
+          piece[1] = VTK_INT_MIN;
+        }
+      }
+      else
+      {
+        std::copy(whole, whole + 6, piece);
+      }
+    }
     // A distributed piece's own cells. An input that is the whole volume
     // is, with more pieces asked for, one that every piece holds (ghost
     // array or not: an image with blanked cells, or given with
@@ -765,8 +799,6 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // ghost array does not mark as duplicates; without one, the piece asked
     // for, unless the input is not that either (split by an upstream filter
     // its own way, as Resample To Image does: then all its cells).
-    int piece[6];
-    std::copy(this->ContourExtent, this->ContourExtent + 6, piece);
     const bool wholeInput = std::equal(dataExtent, dataExtent + 6, whole);
     const bool ownSplit = wholeInput
       ? this->ContourPieces == 1 && HasDuplicateCells(input)
@@ -791,13 +823,17 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
         std::copy(dataExtent, dataExtent + 6, piece);
       }
     }
-    for (int i = 0; i < 3; ++i)
+    if (IsEmptyExtent(piece))
     {
-      if (piece[2 * i] > piece[2 * i + 1])
+      // Pieces of a distributed run may be empty; the only piece asked
+      // for never is when the input holds cells: not without a word.
+      if (this->ContourPieces == 1 && input->GetNumberOfCells() > 0)
       {
-        vtkDebugMacro(<< "Empty piece");
-        return 1;
+        vtkWarningMacro(<< "The extent asked for is empty while the input holds "
+                        << input->GetNumberOfCells() << " cells: nothing is contoured");
       }
+      vtkDebugMacro(<< "Empty piece");
+      return 1;
     }
     for (int i = 0; i < 3; ++i)
     {
@@ -851,6 +887,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   }
   if (dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
   {
+    if ((!this->HasContourExtent || this->ContourPieces == 1) && input->GetNumberOfCells() > 0)
+    {
+      vtkWarningMacro(<< "The extent asked for holds none of the input's "
+                      << input->GetNumberOfCells() << " cells: nothing is contoured");
+    }
     vtkDebugMacro(<< "The requested extent holds no samples of the input");
     return 1;
   }
@@ -1630,6 +1671,7 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
   this->HasContourExtent = false;
+  this->ContourWholeUnknown = false;
   if (!inInfo)
   {
     return result;
@@ -1660,14 +1702,30 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     std::copy(update, update + 6, this->ContourSplitExtent);
     this->ContourPiece = piece;
     this->ContourPieces = std::max(1, numPieces);
+    int splitMode = vtkExtentTranslator::BLOCK_MODE;
+    if (inInfo->Has(vtkExtentTranslator::UPDATE_SPLIT_MODE()))
+    {
+      splitMode = inInfo->Get(vtkExtentTranslator::UPDATE_SPLIT_MODE());
+    }
+    this->ContourSplitMode = splitMode;
+    // An empty whole extent: the pipeline does not know the volume (a
+    // source without RequestInformation, as ParaView's Programmable Source
+    // without its information script), yet the source may deliver one.
+    // Nothing can be asked of it; RequestData() cuts the piece from the
+    // extent that arrives, taken for the whole volume (an empty piece here
+    // gave an empty surface without a word).
+    if (IsEmptyExtent(whole))
+    {
+      this->ContourWholeUnknown = true;
+      // vtkPolyDataAlgorithm asks for the exact extent, and the executive
+      // would crop the volume delivered to the empty one asked for.
+      inInfo->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 0);
+      inInfo->Set(
+        vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
+      return result;
+    }
     if (numPieces > 1)
     {
-      int splitMode = vtkExtentTranslator::BLOCK_MODE;
-      if (inInfo->Has(vtkExtentTranslator::UPDATE_SPLIT_MODE()))
-      {
-        splitMode = inInfo->Get(vtkExtentTranslator::UPDATE_SPLIT_MODE());
-      }
-      this->ContourSplitMode = splitMode;
       vtkNew<vtkExtentTranslator> translator;
       if (!translator->PieceToExtentThreadSafe(
             piece, numPieces, 0, update, this->ContourExtent, splitMode, 0))

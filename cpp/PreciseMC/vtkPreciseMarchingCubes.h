@@ -616,6 +616,10 @@ protected:
   // whole extent known) the update extent is contoured.
   int ContourExtent[6];
   bool HasContourExtent;
+  // The input's whole extent is empty (the pipeline does not know the
+  // volume): RequestData() takes the extent that arrives for it and cuts
+  // ContourExtent from it.
+  bool ContourWholeUnknown;
   // How RequestUpdateExtent() split the volume for ContourExtent: the
   // extent split, the piece, the number of pieces and the split mode of
   // vtkExtentTranslator (ContourPieces 1: not split). RequestData() tells

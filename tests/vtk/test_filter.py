@@ -1087,6 +1087,68 @@ def test_pieces_without_cells_are_empty_without_an_error(source, props, rng):
         assert union.shape == serial.shape and np.array_equal(union, serial), f"{pieces} pieces"
 
 
+def no_information_source(image):
+    """An algorithm that delivers `image` (a copy) but sets no WHOLE_EXTENT
+    in RequestInformation, as ParaView's Programmable Source without its
+    information script: the pipeline reports the empty whole extent
+    (0, -1, 0, -1, 0, -1)."""
+    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    class NoInformation(VTKPythonAlgorithmBase):
+        def __init__(self):
+            super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
+
+        def RequestData(self, request, inInfo, outInfo):
+            vtkImageData.GetData(outInfo).DeepCopy(image)
+            return 1
+
+    return NoInformation()
+
+
+@pytest.mark.parametrize("props", [{"Topology": 1, "Epsilon": 0.0, "NormalMode": 2},
+                                   {"Epsilon": 0.01}])
+def test_a_source_without_a_whole_extent_is_contoured(props):
+    # The filter took the empty whole extent for the piece to contour and
+    # gave an empty surface without a word (vtkMarchingCubes and
+    # vtkFlyingEdges3D contour the same volume given with SetInputData).
+    # The volume delivered is contoured; asked for in pieces, each cuts its
+    # own from it, so that the pieces make up the serial surface once.
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+    from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
+
+    image = wavelet(8)
+    source = no_information_source(image)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(source.GetOutputPort())
+    f.SetValue(0, 150.0)
+    f.SetOutputPointsPrecision(1)
+    for name, value in props.items():
+        getattr(f, "Set" + name)(value)
+    observer = ErrorObserver(f)
+    f.Update()
+    whole = source.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
+    assert tuple(whole) == (0, -1, 0, -1, 0, -1)
+    assert not observer.errors and not observer.warnings
+    direct = precise(image, [150.0], **props)
+    assert direct.GetOutput().GetNumberOfPolys() > 500
+    assert_same_surface(f.GetOutput(), direct.GetOutput(), tol=0.0, normals=False)
+    if props.get("Epsilon") == 0.0:
+        assert_same_surface(f.GetOutput(), marching_cubes(image, [150.0]))
+        fe = vtkFlyingEdges3D()
+        fe.SetInputData(image)
+        fe.SetValue(0, 150.0)
+        fe.Update()
+        assert f.GetOutput().GetNumberOfPolys() == fe.GetOutput().GetNumberOfPolys()
+    serial = coordinate_triangles(f.GetOutput())
+    for pieces in (2, 3):
+        union = np.concatenate([coordinate_triangles(f.GetOutput())
+                                for piece in range(pieces) if f.UpdatePiece(piece, pieces, 0)])
+        union = union[np.lexsort(union.T[::-1])]
+        assert union.shape == serial.shape and np.array_equal(union, serial), f"{pieces} pieces"
+    assert not observer.errors and not observer.warnings
+
+
 def test_a_flat_image_is_still_an_error():
     # The other side of the test above: an input whose whole extent is a
     # single layer of samples is not 3D data.

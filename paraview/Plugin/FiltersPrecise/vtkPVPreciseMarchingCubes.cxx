@@ -47,14 +47,39 @@ int vtkPVPreciseMarchingCubes::RequestData(
     int extent[6];
     input->GetExtent(extent);
     const bool empty = input->GetNumberOfPoints() == 0;
-    const bool holdsWhole = !empty && std::equal(extent, extent + 6, whole);
+    // With no whole extent known (ContourWholeUnknown) what arrived is
+    // taken for the whole volume.
+    const bool holdsWhole =
+      !empty && (this->ContourWholeUnknown || std::equal(extent, extent + 6, whole));
     const int rank = controller->GetLocalProcessId();
     // Sums of the holders and of the empty pieces; the first holder.
     int local[3] = { holdsWhole ? 1 : 0, empty ? 1 : 0, holdsWhole ? processes - rank : 0 };
     int global[3] = { 0, 0, 0 };
     controller->AllReduce(local, global, 2, vtkCommunicator::SUM_OP);
     controller->AllReduce(local + 2, global + 2, 1, vtkCommunicator::MAX_OP);
-    if (global[0] >= 1 && global[1] >= 1 && global[0] + global[1] == processes && holdsWhole)
+    // Without a whole extent the holders may hold one volume each (a
+    // source that split it its own way): then the extents that arrived
+    // differ, and each holder contours all of its own.
+    bool differ = false;
+    if (this->ContourWholeUnknown)
+    {
+      int lowest[6], highest[6];
+      int lowestAll[6], highestAll[6];
+      for (int i = 0; i < 6; ++i)
+      {
+        lowest[i] = holdsWhole ? extent[i] : VTK_INT_MAX;
+        highest[i] = holdsWhole ? extent[i] : VTK_INT_MIN;
+      }
+      controller->AllReduce(lowest, lowestAll, 6, vtkCommunicator::MIN_OP);
+      controller->AllReduce(highest, highestAll, 6, vtkCommunicator::MAX_OP);
+      differ = !std::equal(lowestAll, lowestAll + 6, highestAll);
+    }
+    if (differ && holdsWhole)
+    {
+      this->WholeInputShare = WHOLE_INPUT_ALL;
+    }
+    else if (!differ && global[0] >= 1 && global[1] >= 1 && global[0] + global[1] == processes &&
+      holdsWhole)
     {
       this->WholeInputShare =
         processes - global[2] == rank ? WHOLE_INPUT_ALL : WHOLE_INPUT_NONE;
