@@ -334,6 +334,19 @@ void CheckWritable(const std::string& given, const std::string& what)
   {
     throw Error("cannot write " + what + " " + named + ": " + std::strerror(ENAMETOOLONG));
   }
+  // access() says yes to root for any directory that is not on a
+  // read-only mount (/proc, /sys): the writer then failed after the whole
+  // extraction. The temporary the output is written to is created (and
+  // removed) now instead.
+  const std::string probe = TemporaryPathFor(path);
+  const int fd = open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+  if (fd < 0)
+  {
+    throw Error("cannot write " + what + " " + named + ": no file can be created in '" + dir +
+      "' (" + std::strerror(errno) + ")");
+  }
+  close(fd);
+  unlink(probe.c_str());
 }
 
 std::string CanonicalPath(const std::string& given)

@@ -73,8 +73,9 @@ bool IsRegularFile(const std::string& path);
 std::string ThroughLinks(const std::string& path);
 
 // Throws Error unless a file can be created at path (through its links,
-// ThroughLinks): its directory exists and is writable, and path is not a
-// directory.
+// ThroughLinks): its directory exists and is writable (a temporary file is
+// created there and removed: access() passes root everywhere), and path is
+// not a directory.
 void CheckWritable(const std::string& path, const std::string& what);
 
 // The file path names, for telling two spellings of one file apart:

@@ -1843,6 +1843,26 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
                        "DICOM reader does not give them): the surface is in the image's own "
                        "frame, at its pixel and slice spacing");
   }
+  // A spacing of 0 (a legacy file's SPACING 0 1 1) or not finite, from
+  // any format: the filter refused it only once the extraction ran, after
+  // the checks before the work; said here, as the file's fault.
+  const double* spacing = volume->GetSpacing();
+  const double* origin = volume->GetOrigin();
+  const auto triple = [](const double* v) {
+    return "(" + General(v[0]) + ", " + General(v[1]) + ", " + General(v[2]) + ")";
+  };
+  for (int i = 0; i < 3; ++i)
+  {
+    if (!(spacing[i] != 0.0) || !std::isfinite(spacing[i]))
+    {
+      Unreadable(path, "its spacing " + triple(spacing) +
+          " is not all finite and non-zero (a spacing of 0 puts an axis's samples at one place)");
+    }
+    if (!std::isfinite(origin[i]))
+    {
+      Unreadable(path, "its origin " + triple(origin) + " is not all finite numbers");
+    }
+  }
   return volume;
 }
 }

@@ -57,6 +57,9 @@ struct DataSet
   double LoadSeconds = 0.0;
   std::vector<double> Values;
   vtkSmartPointer<vtkImageData> Volume;
+  // The default isovalue's line for stdout, printed once every check has
+  // passed: a run that fails prints nothing there.
+  std::string Announcement;
 };
 
 // A progress bar on stderr, drawn only on a terminal and only once the
@@ -178,13 +181,9 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
           " (the finite ones): no isovalue gives a surface");
       }
       d.Values.push_back(0.5 * (range[0] + range[1]));
-      if (!o.Quiet)
-      {
-        std::cout << "isovalue " << pmcapp::General(d.Values[0])
-                  << ": the middle of the scalar range [" << pmcapp::General(range[0]) << ", "
-                  << pmcapp::General(range[1]) << "] of " << d.Name << " (set it with -v)"
-                  << std::endl;
-      }
+      d.Announcement = "isovalue " + pmcapp::General(d.Values[0]) +
+        ": the middle of the scalar range [" + pmcapp::General(range[0]) + ", " +
+        pmcapp::General(range[1]) + "] of " + d.Name + " (set it with -v)";
     }
     sets.push_back(d);
   }
@@ -467,6 +466,13 @@ int main(int argc, char* argv[])
     }
 
     std::vector<DataSet> sets = LoadDataSets(o);
+    for (const auto& d : sets)
+    {
+      if (!o.Quiet && !d.Announcement.empty())
+      {
+        std::cout << d.Announcement << std::endl;
+      }
+    }
     // Every file of the run is committed at its end, after the pictures.
     pmcapp::PendingFiles files;
 

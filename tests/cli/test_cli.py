@@ -851,6 +851,42 @@ def error_unwritable_outputs():
     expect(sorted(os.listdir(d)) == ["adir.vtp"], f"left behind: {os.listdir(d)}")
 
 
+@check
+def failures_after_the_default_isovalue_print_nothing_on_stdout():
+    """The default isovalue's line went to stdout before the checks that
+    came after it: a legacy .vtk with SPACING 0 1 1 (refused by the filter,
+    after the read) or an output in a directory where no file can be
+    created (/proc, which access() lets root write: the writer failed after
+    the whole extraction) left it there on a failing run. A zero spacing
+    is refused at read time, the output directory is tried before any work,
+    and the line is printed once the checks have passed."""
+    d = fresh_dir("late-stdout")
+    dims, _, origin, v = blob_volume()
+    legacy = os.path.join(d, "blob.vtk")
+    w = vtkStructuredPointsWriter()
+    w.SetFileName(legacy)
+    w.SetInputData(density_image(v, dims, (1.0, 1.0, 1.0), origin))
+    w.SetFileTypeToASCII()
+    w.Write()
+    with open(legacy) as f:
+        text = f.read()
+    expect("SPACING 1 1 1" in text, "no SPACING line in the legacy file")
+    r = ok(legacy)
+    expect(r.stdout.startswith("isovalue "), f"no default isovalue line: {r.stdout!r}")
+    out = os.path.join(d, "o.vtp")
+    zero = os.path.join(d, "zero.vtk")
+    with open(zero, "w") as f:
+        f.write(text.replace("SPACING 1 1 1", "SPACING 0 1 1"))
+    expect_error([zero, "-o", out], "its spacing (0, 1, 1)", outputs=[out], status=1)
+    vti = write_vti(density_image(v, dims, (1.0, 0.0, 1.0), origin), os.path.join(d, "zero.vti"))
+    expect_error([vti, "-o", out], "its spacing (1, 0, 1)", outputs=[out], status=1)
+    if os.path.isdir("/proc"):
+        expect_error([legacy, "-o", "/proc/precisemc-test.vtp"], "cannot write surface",
+                     status=1)
+        expect_error(["--sample", "tube", "--compare", "/proc/precisemc-test.png"],
+                     "cannot write picture", status=1)
+
+
 # --- --measure ----------------------------------------------------------------
 
 def measured(stdout, key):
