@@ -9,8 +9,10 @@
 #include "DICOMCallback.h"
 #include "DICOMParser.h"
 #include "vtkAlgorithm.h"
+#include "vtkArrayDispatch.h"
 #include "vtkCellArray.h"
 #include "vtkDataArray.h"
+#include "vtkDataArrayRange.h"
 #include "vtkDICOMImageReader.h"
 #include "vtkDoubleArray.h"
 #include "vtkErrorCode.h"
@@ -1808,7 +1810,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
   // Infinite samples are skipped like NaN ones (the cells touching them
   // have no surface): only finite values count.
   double range[2];
-  scalars->GetFiniteRange(range, 0);
+  FiniteRange(scalars, range);
   if (!std::isfinite(range[0]) || !std::isfinite(range[1]) || range[0] > range[1])
   {
     Unreadable(path, "the scalars have no finite values");
@@ -1865,6 +1867,42 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
   }
   return volume;
 }
+}
+
+namespace
+{
+// FiniteRange() over any array type (vtkArrayDispatch's typed arrays, or
+// vtkDataArray's API for the others).
+struct FiniteRangeWorker
+{
+  double Min = std::numeric_limits<double>::infinity();
+  double Max = -std::numeric_limits<double>::infinity();
+
+  template <typename ArrayT>
+  void operator()(ArrayT* array)
+  {
+    for (const auto tuple : vtk::DataArrayTupleRange(array))
+    {
+      const double v = static_cast<double>(tuple[0]);
+      if (std::isfinite(v))
+      {
+        this->Min = std::min(this->Min, v);
+        this->Max = std::max(this->Max, v);
+      }
+    }
+  }
+};
+}
+
+void FiniteRange(vtkDataArray* scalars, double range[2])
+{
+  FiniteRangeWorker worker;
+  if (scalars->GetNumberOfComponents() > 0 && !vtkArrayDispatch::Dispatch::Execute(scalars, worker))
+  {
+    worker(scalars);
+  }
+  range[0] = worker.Min;
+  range[1] = worker.Max;
 }
 
 std::string DescribeVolume(vtkImageData* volume)

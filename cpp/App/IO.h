@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+class vtkDataArray;
 class vtkImageData;
 class vtkPolyData;
 
@@ -24,6 +25,12 @@ namespace pmcapp
 // orientation).
 vtkSmartPointer<vtkImageData> ReadVolume(
   const std::string& path, const std::string& array, std::vector<std::string>& warnings);
+
+// The smallest and largest finite value of component 0 of `scalars`, in
+// one pass (range[0] > range[1] when none is finite). VTK 9.1's
+// GetFiniteRange starts its minimum at 1e+299: with every value above it
+// the minimum came out as 1e+299.
+void FiniteRange(vtkDataArray* scalars, double range[2]);
 
 // "48x48x20, unsigned char" for the table (", array 'p'" after it when the
 // volume has several point arrays).

@@ -172,7 +172,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     d.Name = BaseName(o.Input);
     d.Description = pmcapp::DescribeVolume(d.Volume);
     double range[2];
-    d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
+    pmcapp::FiniteRange(d.Volume->GetPointData()->GetScalars(), range);
     if (o.Values.empty())
     {
       if (range[0] == range[1])
@@ -180,7 +180,10 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
         throw Error("the scalars of " + d.Name + " are all " + pmcapp::General(range[0]) +
           " (the finite ones): no isovalue gives a surface");
       }
-      d.Values.push_back(0.5 * (range[0] + range[1]));
+      // Halved first where the sum overflows (values near DBL_MAX); not
+      // always, which would round the middle of subnormal ranges to 0.
+      const double sum = range[0] + range[1];
+      d.Values.push_back(std::isfinite(sum) ? 0.5 * sum : 0.5 * range[0] + 0.5 * range[1]);
       d.Announcement = "isovalue " + pmcapp::General(d.Values[0]) +
         ": the middle of the scalar range [" + pmcapp::General(range[0]) + ", " +
         pmcapp::General(range[1]) + "] of " + d.Name + " (set it with -v)";
@@ -216,7 +219,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
       d.Values = o.Values;
     }
     double range[2];
-    d.Volume->GetPointData()->GetScalars()->GetFiniteRange(range, 0);
+    pmcapp::FiniteRange(d.Volume->GetPointData()->GetScalars(), range);
     // Which array, when the file has several (--array chooses).
     vtkDataArray* scalars = d.Volume->GetPointData()->GetScalars();
     const std::string which =

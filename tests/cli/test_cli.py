@@ -764,6 +764,30 @@ def error_isovalue_outside_range():
 
 
 @check
+def scalar_range_of_values_beyond_1e299():
+    """VTK's GetFiniteRange starts its minimum at 1e+299 (and its maximum
+    at -1e+299): a double volume with every value in [1.1e308, 1.7e308]
+    had the range [1e+299, 1.7e+308], the default isovalue 8.5e+307 below
+    every sample, an empty surface and exit status 0, and -v 1e308 passed
+    the range check. The range is the data's, on either sign, and its
+    middle does not overflow."""
+    d = fresh_dir("huge-values")
+    dims, spacing, origin, v = blob_volume()
+    out = os.path.join(d, "o.vtp")
+    v = v.astype(np.float64)
+    shape = 1.1e308 + 0.6e308 * ((v - v.min()) / (v.max() - v.min()))
+    for sign, lo, hi in ((1, "1.1e+308", "1.7e+308"), (-1, "-1.7e+308", "-1.1e+308")):
+        path = write_vti(density_image(sign * shape, dims, spacing, origin),
+                         os.path.join(d, f"huge{sign:+d}.vti"))
+        r = ok(path, "--epsilon", "0")
+        first = r.stdout.splitlines()[0]
+        expect(f"scalar range [{lo}, {hi}]" in first, f"range line: {first!r}")
+        expect(table_value(r.stdout, "MC triangles") > 0, r.stdout)
+        expect_error([path, "-v", str(sign * 1e308), "-o", out],
+                     f"is outside the scalar range [{lo}, {hi}]", outputs=[out], status=1)
+
+
+@check
 def reconstruction_filters():
     d = fresh_dir("filters")
     surfaces = {}
