@@ -1145,7 +1145,13 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let e = 12 + x;
                     let lp = DVec3::from_array(*lp);
                     let gp = cell_f + lp;
-                    loc[e] = lp;
+                    // Refinement sees the point where the output has it:
+                    // `lp` a rounding away from a face (2^-54 from x = 0)
+                    // lies on it in `gp`, where the neighbour's patch
+                    // meets it, and the two cells must classify its edges
+                    // alike (else one splits an edge the other keeps
+                    // whole: a hole). The difference is exact.
+                    loc[e] = gp - cell_f;
                     if !weld_all && !count_only && !strictly_inside(gp, cell_f) {
                         out.redo_with_map = true;
                         break 'layers;

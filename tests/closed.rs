@@ -308,3 +308,60 @@ fn coincident_opposite_triangles_are_removed() {
     assert_eq!(c.unbalanced_edges, 0);
     assert_eq!(c.duplicates, 0, "{c:?}");
 }
+
+/// Distance fields of spheres whose band |d| < 1 is replaced by rounding
+/// noise, k * 1e-17 with k in -2..=2 (or without 0), beside samples of
+/// size 1: Marching Cubes points there lie a rounding away from faces in
+/// a cell's coordinates and on them in the output's, and cells once
+/// disagreed on which of their edges lie in a shared face (4 and 14 of
+/// 23 such volumes had holes). Watertight as the integer fields are.
+#[test]
+fn rounding_noise_around_the_isovalue_is_watertight() {
+    let n = 16;
+    let mut failures = Vec::new();
+    let mut configs = configs();
+    configs.push(("default".to_string(), Options::default()));
+    for zero in [true, false] {
+        let mut rng = Rng::new(7 + zero as u64);
+        for trial in 0..12 {
+            let c = [
+                rng.range(7.0, 8.0),
+                rng.range(7.0, 8.0),
+                rng.range(7.0, 8.0),
+            ];
+            let r = 3.5 + 0.2 * trial as f64;
+            let values: Vec<f64> = sphere([n; 3], c, r)
+                .into_iter()
+                .map(|d| {
+                    if d.abs() >= 1.0 {
+                        return d;
+                    }
+                    let k = if zero {
+                        rng.below(5) as f64 - 2.0
+                    } else {
+                        [-2.0, -1.0, 1.0, 2.0][rng.below(4) as usize]
+                    };
+                    k * 1e-17
+                })
+                .collect();
+            let vol = Volume::new(&values, dims_u64([n; 3]));
+            for (cfg, opts) in &configs {
+                let mesh = extract(&vol, 0.0, opts).unwrap();
+                let c = check_mesh(&mesh);
+                if c.unbalanced_edges != 0
+                    || c.boundary_edges != 0
+                    || c.misoriented_edges != 0
+                    || c.triangles == 0
+                {
+                    failures.push(format!("zero {zero} trial {trial} / {cfg}: {c:?}"));
+                }
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
