@@ -20,6 +20,8 @@
 #include "vtkImageData.h"
 #include "vtkImageReader2.h"
 #include "vtkInformation.h"
+#include "vtkMath.h"
+#include "vtkMatrix3x3.h"
 #include "vtkMatrix4x4.h"
 #include "vtkNIFTIImageHeader.h"
 #include "vtkMetaImageReader.h"
@@ -1573,6 +1575,69 @@ bool IsNrrd(const std::string& path)
 
 namespace
 {
+// What the filter refuses in a volume's frame once the extraction runs
+// (after the default isovalue's line went to stdout), tested here as it
+// does: a direction matrix with a non-finite entry or a singular D *
+// sign(spacing) (a .vti's Direction is read as written; the other formats'
+// matrices went through SetFrame), and world coordinates that overflow at
+// a corner of the extent (origin + column 0 * i + column 1 * j + column 2
+// * k, each partial sum; the library's own test for an axis-aligned grid).
+void CheckWorldFrame(vtkImageData* volume, const std::string& path)
+{
+  const double* origin = volume->GetOrigin();
+  const double* spacing = volume->GetSpacing();
+  vtkMatrix3x3* direction = volume->GetDirectionMatrix();
+  const bool axisAligned = direction->IsIdentity() && spacing[0] > 0.0 && spacing[1] > 0.0 &&
+    spacing[2] > 0.0;
+  double indexToWorld[3][3];
+  double scaled[3][3];
+  std::string entries;
+  bool finite = true;
+  for (int r = 0; r < 3; ++r)
+  {
+    for (int c = 0; c < 3; ++c)
+    {
+      const double e = direction->GetElement(r, c);
+      entries += (entries.empty() ? "" : " ") + General(e);
+      finite = finite && std::isfinite(e);
+      indexToWorld[r][c] = axisAligned ? (r == c ? spacing[c] : 0.0) : e * spacing[c];
+      scaled[r][c] = e * (spacing[c] < 0.0 ? -1.0 : 1.0);
+    }
+  }
+  const double det = vtkMath::Determinant3x3(scaled);
+  if (!axisAligned && (!finite || det == 0.0 || !std::isfinite(det)))
+  {
+    Unreadable(path, "its direction matrix (" + entries + ") is " +
+        (finite ? "singular" : "not all finite numbers"));
+  }
+  int extent[6];
+  volume->GetExtent(extent);
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const double ijk[3] = { static_cast<double>(extent[corner & 1 ? 1 : 0]),
+      static_cast<double>(extent[corner & 2 ? 3 : 2]),
+      static_cast<double>(extent[corner & 4 ? 5 : 4]) };
+    for (int r = 0; r < 3; ++r)
+    {
+      double x = origin[r];
+      for (int c = 0; c < 3; ++c)
+      {
+        x += indexToWorld[r][c] * ijk[c];
+        if (!std::isfinite(x))
+        {
+          const double* s = spacing;
+          Unreadable(path, "its world coordinates overflow (not finite at sample (" +
+              General(ijk[0]) + ", " + General(ijk[1]) + ", " + General(ijk[2]) +
+              ") with origin (" + General(origin[0]) + ", " + General(origin[1]) + ", " +
+              General(origin[2]) + "), spacing (" + General(s[0]) + ", " + General(s[1]) +
+              ", " + General(s[2]) + ")" + (axisAligned ? "" : " and its direction matrix") +
+              ")");
+        }
+      }
+    }
+  }
+}
+
 vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
   const std::string& path, const std::string& array, std::vector<std::string>& warnings);
 }
@@ -1865,6 +1930,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
       Unreadable(path, "its origin " + triple(origin) + " is not all finite numbers");
     }
   }
+  CheckWorldFrame(volume, path);
   return volume;
 }
 }

@@ -911,6 +911,43 @@ def failures_after_the_default_isovalue_print_nothing_on_stdout():
                      "cannot write picture", status=1)
 
 
+@check
+def geometry_the_filter_refuses_is_refused_at_read_time():
+    """A singular direction matrix and world coordinates that overflow were
+    refused by the filter, after the default isovalue's line had gone to
+    stdout (exit status 1 with it there). They are the file's fault, said
+    at read time for every format: the run prints nothing on stdout."""
+    d = fresh_dir("late-geometry")
+    v = np.arange(64, dtype=np.float64).reshape(4, 4, 4)
+    out = os.path.join(d, "o.vtp")
+    singular = density_image(v, (4, 4, 4), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+    singular.SetDirectionMatrix(1, 0, 0, 1, 0, 0, 0, 0, 1)
+    path = write_vti(singular, os.path.join(d, "singular.vti"))
+    expect_error([path, "-o", out], "its direction matrix", outputs=[out], status=1)
+    for name, spacing in (("huge", (1e308, 1.0, 1.0)), ("huge-negative", (-1e308, 1.0, 1.0))):
+        path = write_vti(density_image(v, (4, 4, 4), spacing, (0.0, 0.0, 0.0)),
+                         os.path.join(d, name + ".vti"))
+        expect_error([path, "-o", out], "overflow", outputs=[out], status=1)
+    # Rotated (not axis-aligned: the filter's own check) and legacy (axis-
+    # aligned: the library's).
+    rotated = density_image(v, (4, 4, 4), (1.0, 1e308, 1.0), (0.0, 0.0, 0.0))
+    rotated.SetDirectionMatrix(0, 1, 0, 1, 0, 0, 0, 0, 1)
+    path = write_vti(rotated, os.path.join(d, "rotated.vti"))
+    expect_error([path, "-o", out], "overflow", outputs=[out], status=1)
+    legacy = os.path.join(d, "huge.vtk")
+    w = vtkStructuredPointsWriter()
+    w.SetFileName(legacy)
+    w.SetInputData(density_image(v, (4, 4, 4), (1.0, 1.0, 1e308), (0.0, 0.0, 0.0)))
+    w.SetFileTypeToASCII()
+    w.Write()
+    expect_error([legacy, "-o", out], "overflow", outputs=[out], status=1)
+    # At the edge: the last sample at 3 * 5e307, finite, is contoured.
+    fine = write_vti(density_image(v, (4, 4, 4), (5e307, 1.0, 1.0), (0.0, 0.0, 0.0)),
+                     os.path.join(d, "fine.vti"))
+    r = ok(fine, "-o", out)
+    expect(r.stdout.startswith("isovalue "), f"no default isovalue line: {r.stdout!r}")
+
+
 # --- --measure ----------------------------------------------------------------
 
 def measured(stdout, key):
