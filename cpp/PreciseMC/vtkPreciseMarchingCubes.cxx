@@ -823,6 +823,22 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
         std::copy(dataExtent, dataExtent + 6, piece);
       }
     }
+    if (this->ContourWholeUnknown && this->ContourPieces > 1 &&
+      this->WholeInputShare == WHOLE_INPUT_AS_ASKED)
+    {
+      // Right for a source that delivers the whole volume to every piece
+      // (ParaView's Programmable Source without its information script);
+      // one that delivers its own piece only loses the rest of the surface
+      // here, and nothing tells the two apart: said, not silent.
+      vtkWarningMacro(<< "The input reports no whole extent: the volume that arrived ("
+                      << dataExtent[0] << ".." << dataExtent[1] << ", " << dataExtent[2] << ".."
+                      << dataExtent[3] << ", " << dataExtent[4] << ".." << dataExtent[5]
+                      << ") is taken for the whole volume and piece " << this->ContourPiece
+                      << " of " << this->ContourPieces << " cut from it is contoured; a source "
+                      << "that delivers only its own piece loses the rest of the surface (give "
+                      << "the source a whole extent in its RequestInformation, in ParaView the "
+                      << "Programmable Source's RequestInformation script)");
+    }
     if (IsEmptyExtent(piece))
     {
       // Pieces of a distributed run may be empty; the only piece asked
@@ -865,9 +881,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       vtkWarningMacro(<< "The input arrived as the piece (" << dataExtent[0] << ".."
                       << dataExtent[1] << ", " << dataExtent[2] << ".." << dataExtent[3] << ", "
                       << dataExtent[4] << ".." << dataExtent[5] << ") instead of the one asked for ("
-                      << this->ContourExtent[0] << ".." << this->ContourExtent[1] << ", "
-                      << this->ContourExtent[2] << ".." << this->ContourExtent[3] << ", "
-                      << this->ContourExtent[4] << ".." << this->ContourExtent[5]
+                      << piece[0] << ".." << piece[1] << ", " << piece[2] << ".." << piece[3]
+                      << ", " << piece[4] << ".." << piece[5]
                       << "), without the samples around it that "
                       << (global ? "the B-Spline Interpolating prefilter"
                                  : "normals, a cubic filter or refinement on sub-cells")
@@ -1717,6 +1732,13 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     if (IsEmptyExtent(whole))
     {
       this->ContourWholeUnknown = true;
+      // Not known before the volume arrives (RequestData() cuts the piece
+      // it contours into `piece`): not a previous update's extent.
+      this->ContourExtent[0] = VTK_INT_MAX;
+      this->ContourExtent[1] = VTK_INT_MIN;
+      // No ghost levels: the volume that arrives is taken for the whole,
+      // so a ghost layer around a source's own piece would be contoured as
+      // cells of the volume (with WholeInputShare's WHOLE_INPUT_ALL, twice).
       // vtkPolyDataAlgorithm asks for the exact extent, and the executive
       // would crop the volume delivered to the empty one asked for.
       inInfo->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 0);

@@ -1146,7 +1146,59 @@ def test_a_source_without_a_whole_extent_is_contoured(props):
                                 for piece in range(pieces) if f.UpdatePiece(piece, pieces, 0)])
         union = union[np.lexsort(union.T[::-1])]
         assert union.shape == serial.shape and np.array_equal(union, serial), f"{pieces} pieces"
+    # Each piece says what it did (test_pieces_without_a_whole_extent_warn).
+    assert not observer.errors and len(observer.warnings) == 5
+    assert all("reports no whole extent" in w for w in observer.warnings)
+
+
+def test_pieces_without_a_whole_extent_warn():
+    # A source that honours pieces but reports no whole extent delivers
+    # only its own piece; each piece of the filter takes it for the whole
+    # volume and cuts its piece from it again, so most of the surface is
+    # lost. Nothing tells it from a source that delivers the whole volume
+    # to every piece (the test above): the filter says what it did, where
+    # it was silent.
+    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkCommonExecutionModel import (vtkExtentTranslator,
+                                                    vtkStreamingDemandDrivenPipeline as sddp)
+
+    image = wavelet(8)
+
+    class OwnPieceOnly(VTKPythonAlgorithmBase):
+        def __init__(self):
+            super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
+
+        def RequestData(self, request, inInfo, outInfo):
+            info = outInfo.GetInformationObject(0)
+            translator = vtkExtentTranslator()
+            extent = [0] * 6
+            translator.PieceToExtentThreadSafe(info.Get(sddp.UPDATE_PIECE_NUMBER()),
+                                               info.Get(sddp.UPDATE_NUMBER_OF_PIECES()), 0,
+                                               image.GetExtent(), extent,
+                                               vtkExtentTranslator.BLOCK_MODE, 0)
+            from vtkmodules.vtkImagingCore import vtkExtractVOI
+            voi = vtkExtractVOI()
+            voi.SetInputData(image)
+            voi.SetVOI(extent)
+            voi.Update()
+            vtkImageData.GetData(outInfo).ShallowCopy(voi.GetOutput())
+            return 1
+
+    source = OwnPieceOnly()  # kept: the pipeline holds no Python reference
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(source.GetOutputPort())
+    f.SetValue(0, 150.0)
+    observer = ErrorObserver(f)
+    f.Update()
     assert not observer.errors and not observer.warnings
+    for piece in range(2):
+        f.UpdatePiece(piece, 2, 0)
+    assert not observer.errors and len(observer.warnings) == 2
+    for piece, warning in enumerate(observer.warnings):
+        assert "reports no whole extent" in warning
+        assert f"piece {piece} of 2 cut from it is contoured" in warning
+        assert "loses the rest of the surface" in warning
 
 
 def test_a_flat_image_is_still_an_error():
