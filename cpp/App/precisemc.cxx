@@ -183,10 +183,17 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
       // Halved first where the sum overflows (values near DBL_MAX); not
       // always, which would round the middle of subnormal ranges to 0.
       const double sum = range[0] + range[1];
-      d.Values.push_back(std::isfinite(sum) ? 0.5 * sum : 0.5 * range[0] + 0.5 * range[1]);
-      d.Announcement = "isovalue " + pmcapp::General(d.Values[0]) +
-        ": the middle of the scalar range [" + pmcapp::General(range[0]) + ", " +
-        pmcapp::General(range[1]) + "] of " + d.Name + " (set it with -v)";
+      const double middle = std::isfinite(sum) ? 0.5 * sum : 0.5 * range[0] + 0.5 * range[1];
+      // Two adjacent doubles (1 and 1 + 2^-52, 0 and the least subnormal)
+      // have no number between them: the middle rounds to the minimum,
+      // which no cell crosses (refused below). The maximum is crossed
+      // wherever the two values meet in a cell.
+      const bool between = middle > range[0];
+      d.Values.push_back(between ? middle : range[1]);
+      d.Announcement = "isovalue " + pmcapp::General(d.Values[0]) + ": the " +
+        (between ? "middle" : "maximum") + " of the scalar range [" +
+        pmcapp::General(range[0]) + ", " + pmcapp::General(range[1]) + "] of " + d.Name +
+        (between ? "" : " (no number lies between its ends)") + " (set it with -v)";
     }
     sets.push_back(d);
   }

@@ -788,6 +788,30 @@ def scalar_range_of_values_beyond_1e299():
 
 
 @check
+def default_isovalue_of_two_adjacent_values():
+    """A double volume holding two adjacent doubles only (1 and 1 + 2^-52,
+    0 and the least subnormal, the largest double and the one below it):
+    the middle of its range rounds to the minimum, which the tool then
+    refused as giving no surface. The maximum is taken instead, and cut."""
+    d = fresh_dir("adjacent-values")
+    dims, spacing, origin, v = blob_volume()
+    out = os.path.join(d, "o.vtp")
+    top = np.finfo(np.float64).max
+    for lo, hi, text in ((1.0, np.nextafter(1.0, 2.0), "1.0000000000000002"),
+                         (0.0, 5e-324, "4.94066e-324"),
+                         (np.nextafter(top, 0.0), top, "1.7976931348623157e+308")):
+        values = np.where(v > 50.0, hi, lo).astype(np.float64)
+        path = write_vti(density_image(values, dims, spacing, origin),
+                         os.path.join(d, f"adjacent-{text}.vti"))
+        r = ok(path, "--epsilon", "0", "-o", out)
+        first = r.stdout.splitlines()[0]
+        expect(first.startswith(f"isovalue {text}: the maximum of the scalar range"),
+               f"isovalue line: {first!r}")
+        expect(table_value(r.stdout, "MC triangles") > 0, r.stdout)
+        expect(read_surface(out).GetNumberOfPolys() > 0, "empty surface written")
+
+
+@check
 def reconstruction_filters():
     d = fresh_dir("filters")
     surfaces = {}
