@@ -19,6 +19,7 @@
 #include <cstdlib>
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -338,15 +339,46 @@ void CheckWritable(const std::string& given, const std::string& what)
   // read-only mount (/proc, /sys): the writer then failed after the whole
   // extraction. The temporary the output is written to is created (and
   // removed) now instead.
-  const std::string probe = TemporaryPathFor(path);
-  const int fd = open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
-  if (fd < 0)
+  // The signals that remove the run's temporary files wait meanwhile: the
+  // probe is not one of them, and an interrupt between open() and unlink()
+  // left it behind.
+  sigset_t block, previous;
+  sigemptyset(&block);
+  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE })
   {
-    throw Error("cannot write " + what + " " + named + ": no file can be created in '" + dir +
-      "' (" + std::strerror(errno) + ")");
+    sigaddset(&block, sig);
   }
-  close(fd);
-  unlink(probe.c_str());
+  pthread_sigmask(SIG_BLOCK, &block, &previous);
+  std::string failure;
+  for (int attempt = 0;; ++attempt)
+  {
+    // A name taken (another run's temporary, or a stale one by a reused
+    // process id) says nothing of the directory: another is tried.
+    const std::string probe = TemporaryPathFor(path);
+    const int fd = open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+    if (fd < 0)
+    {
+      if (errno == EEXIST && attempt < 100)
+      {
+        continue;
+      }
+      failure = "no file can be created in '" + dir + "' (" + std::strerror(errno) + ")";
+      break;
+    }
+    close(fd);
+    // A probe that cannot be removed stays in the user's directory.
+    if (unlink(probe.c_str()) != 0)
+    {
+      failure = "the file '" + probe + "' created there to try it cannot be removed (" +
+        std::strerror(errno) + ")";
+    }
+    break;
+  }
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  if (!failure.empty())
+  {
+    throw Error("cannot write " + what + " " + named + ": " + failure);
+  }
 }
 
 std::string CanonicalPath(const std::string& given)

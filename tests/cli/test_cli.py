@@ -900,6 +900,26 @@ def error_unwritable_outputs():
 
 
 @check
+def a_taken_temporary_name_is_not_an_unwritable_directory():
+    """The output's directory is tried with a temporary file created there
+    (and removed) before the work: when its name was taken (a stale one of
+    a run whose process id came back) the directory was reported as one
+    where "no file can be created". Another name is tried."""
+    d = fresh_dir("taken-temporary")
+    out = os.path.join(d, "o.vtp")
+    # The names the tool's first temporaries take: .o.tmp<pid>-<n>.vtp.
+    # The shell's process id is the tool's after exec.
+    script = ('for n in 1 2 3 4 5; do : > "$1/.o.tmp$$-$n.vtp"; done; '
+              'exec "$2" --sample tube -o "$1/o.vtp"')
+    r = subprocess.run(["/bin/sh", "-c", script, "sh", d, TOOL], capture_output=True,
+                       text=True, timeout=TIMEOUT)
+    expect(r.returncode == 0, f"exit status {r.returncode}, stderr: {r.stderr.strip()!r}")
+    expect(os.path.getsize(out) > 0, "no surface written")
+    taken = sorted(f for f in os.listdir(d) if f != "o.vtp")
+    expect(len(taken) == 5, f"the taken names were removed or others left: {taken}")
+
+
+@check
 def failures_after_the_default_isovalue_print_nothing_on_stdout():
     """The default isovalue's line went to stdout before the checks that
     came after it: a legacy .vtk with SPACING 0 1 1 (refused by the filter,
