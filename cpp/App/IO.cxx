@@ -1638,19 +1638,19 @@ void CheckWorldFrame(vtkImageData* volume, const std::string& path)
   }
 }
 
-vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
-  const std::string& path, const std::string& array, std::vector<std::string>& warnings);
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
+  const std::string& array, std::vector<std::string>& warnings, double range[2]);
 }
 
 // A failure inside a reader (an allocation of a size the header made up, a
 // C++ exception from VTK) is reported as a failure to read that file, with
 // its name, not as a bare "out of memory" or library message.
-vtkSmartPointer<vtkImageData> ReadVolume(
-  const std::string& path, const std::string& array, std::vector<std::string>& warnings)
+vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path, const std::string& array,
+  std::vector<std::string>& warnings, double range[2])
 {
   try
   {
-    return ReadVolumeUnchecked(path, array, warnings);
+    return ReadVolumeUnchecked(path, array, warnings, range);
   }
   catch (const Error&)
   {
@@ -1669,8 +1669,8 @@ vtkSmartPointer<vtkImageData> ReadVolume(
 
 namespace
 {
-vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
-  const std::string& path, const std::string& array, std::vector<std::string>& warnings)
+vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
+  const std::string& array, std::vector<std::string>& warnings, double range[2])
 {
   vtkSmartPointer<vtkAlgorithm> reader;
   NrrdHeader nrrd;
@@ -1872,15 +1872,6 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
   {
     Unreadable(path, "the volume has no point scalars");
   }
-  // Infinite samples are skipped like NaN ones (the cells touching them
-  // have no surface): only finite values count.
-  double range[2];
-  FiniteRange(scalars, range);
-  if (!std::isfinite(range[0]) || !std::isfinite(range[1]) || range[0] > range[1])
-  {
-    Unreadable(path, "the scalars have no finite values");
-  }
-
   auto volume = vtkSmartPointer<vtkImageData>::New();
   volume->ShallowCopy(image);
   if (auto* nifti = vtkNIFTIImageReader::SafeDownCast(reader))
@@ -1895,6 +1886,14 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(
     }
     ApplyNiftiScaling(nifti, volume);
     ApplyNiftiFrame(volume, path, nifti);
+  }
+  // Infinite samples are skipped like NaN ones (the cells touching them
+  // have no surface): only finite values count. Once the values are final
+  // (a NIfTI's scaling may take them beyond float's range).
+  FiniteRange(volume->GetPointData()->GetScalars(), range);
+  if (!std::isfinite(range[0]) || !std::isfinite(range[1]) || range[0] > range[1])
+  {
+    Unreadable(path, "the scalars have no finite values");
   }
   if (!nrrdSizes.empty())
   {

@@ -22,9 +22,11 @@ namespace pmcapp
 // scalars). `array` names the point array to contour ("" for the default).
 // What the volume's file gives but the tool cannot apply is appended to
 // `warnings`, one sentence each (a DICOM series' patient position and
-// orientation).
-vtkSmartPointer<vtkImageData> ReadVolume(
-  const std::string& path, const std::string& array, std::vector<std::string>& warnings);
+// orientation). `range` receives FiniteRange() of the scalars contoured
+// (as read, NIfTI scaling applied), which the caller reuses: one pass over
+// the samples, not one per use.
+vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path, const std::string& array,
+  std::vector<std::string>& warnings, double range[2]);
 
 // The smallest and largest finite value of component 0 of `scalars`, in
 // one pass (range[0] > range[1] when none is finite). VTK 9.1's

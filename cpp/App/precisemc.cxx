@@ -57,6 +57,9 @@ struct DataSet
   double LoadSeconds = 0.0;
   std::vector<double> Values;
   vtkSmartPointer<vtkImageData> Volume;
+  // pmcapp::FiniteRange() of the scalars, computed once (a pass over every
+  // sample: it was made three times for a file).
+  double Range[2] = { 0.0, 0.0 };
   // The default isovalue's line for stdout, printed once every check has
   // passed: a run that fails prints nothing there.
   std::string Announcement;
@@ -162,7 +165,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     DataSet d;
     Clock::time_point start = Clock::now();
     std::vector<std::string> warnings;
-    d.Volume = pmcapp::ReadVolume(o.Input, o.Array, warnings);
+    d.Volume = pmcapp::ReadVolume(o.Input, o.Array, warnings, d.Range);
     for (const std::string& w : o.Quiet ? std::vector<std::string>() : warnings)
     {
       std::cerr << "precisemc: warning: '" << o.Input << "': " << w << "\n";
@@ -171,8 +174,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     d.LoadPhase = "read";
     d.Name = BaseName(o.Input);
     d.Description = pmcapp::DescribeVolume(d.Volume);
-    double range[2];
-    pmcapp::FiniteRange(d.Volume->GetPointData()->GetScalars(), range);
+    const double* range = d.Range;
     if (o.Values.empty())
     {
       if (range[0] == range[1])
@@ -209,6 +211,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
       d.Name = s.Name;
       d.Description = s.Description;
       d.Volume = s.Volume;
+      pmcapp::FiniteRange(d.Volume->GetPointData()->GetScalars(), d.Range);
       if (o.Values.empty())
       {
         d.Values.push_back(s.IsoValue);
@@ -225,8 +228,7 @@ std::vector<DataSet> LoadDataSets(const pmcapp::Options& o)
     {
       d.Values = o.Values;
     }
-    double range[2];
-    pmcapp::FiniteRange(d.Volume->GetPointData()->GetScalars(), range);
+    const double* range = d.Range;
     // Which array, when the file has several (--array chooses).
     vtkDataArray* scalars = d.Volume->GetPointData()->GetScalars();
     const std::string which =

@@ -1500,6 +1500,29 @@ def nifti_scaling_is_applied():
 
 
 @check
+def nifti_scaling_beyond_float_leaves_no_finite_values():
+    """double samples of 1e300 and more scaled by scl_slope 3e38 are all
+    infinite:
+    the check for finite values looked at the stored values, before the
+    scaling, and the range computed after it, [inf, -inf], gave the default
+    isovalue NaN, which passed the range checks. The range is computed once,
+    on the scaled values, and the file is refused."""
+    d = fresh_dir("nifti-overflow")
+    dims, spacing, origin, v = blob_volume()
+    stored = 1e300 * (1.0 + v.astype(np.float64))
+    path = os.path.join(d, "overflow.nii")
+    w = vtkNIFTIImageWriter()
+    w.SetFileName(path)
+    w.SetInputData(density_image(stored, dims, spacing, origin))
+    w.SetRescaleSlope(3e38)
+    w.SetRescaleIntercept(0.0)
+    w.Write()
+    out = os.path.join(d, "o.vtp")
+    expect_error([path, "-o", out], "the scalars have no finite values", outputs=[out],
+                 status=1)
+
+
+@check
 def array_option_chooses_the_point_array():
     """A file of several point arrays, none active: the first is contoured,
     and the table and a range error name it (the tool chose it without a
