@@ -59,21 +59,21 @@ int vtkPVPreciseMarchingCubes::RequestData(
     controller->AllReduce(local + 2, global + 2, 1, vtkCommunicator::MAX_OP);
     // Without a whole extent the holders may hold one volume each (a
     // source that split it its own way): then the extents that arrived
-    // differ, and each holder contours all of its own.
-    bool differ = false;
-    if (this->ContourWholeUnknown)
+    // differ, and each holder contours all of its own. Reduced on every
+    // rank, whatever its ContourWholeUnknown (a rank's own flag: ranks
+    // that disagreed made different numbers of collective calls and hung);
+    // with a whole extent known the holders' extents are all the whole, so
+    // `differ` stays false there.
+    int lowest[6], highest[6];
+    int lowestAll[6], highestAll[6];
+    for (int i = 0; i < 6; ++i)
     {
-      int lowest[6], highest[6];
-      int lowestAll[6], highestAll[6];
-      for (int i = 0; i < 6; ++i)
-      {
-        lowest[i] = holdsWhole ? extent[i] : VTK_INT_MAX;
-        highest[i] = holdsWhole ? extent[i] : VTK_INT_MIN;
-      }
-      controller->AllReduce(lowest, lowestAll, 6, vtkCommunicator::MIN_OP);
-      controller->AllReduce(highest, highestAll, 6, vtkCommunicator::MAX_OP);
-      differ = !std::equal(lowestAll, lowestAll + 6, highestAll);
+      lowest[i] = holdsWhole ? extent[i] : VTK_INT_MAX;
+      highest[i] = holdsWhole ? extent[i] : VTK_INT_MIN;
     }
+    controller->AllReduce(lowest, lowestAll, 6, vtkCommunicator::MIN_OP);
+    controller->AllReduce(highest, highestAll, 6, vtkCommunicator::MAX_OP);
+    const bool differ = global[0] >= 1 && !std::equal(lowestAll, lowestAll + 6, highestAll);
     if (differ && holdsWhole)
     {
       this->WholeInputShare = WHOLE_INPUT_ALL;
