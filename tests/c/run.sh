@@ -5,7 +5,9 @@
 #   2. with -fsanitize=address,undefined on the C side, linked with the
 #      static library (LeakSanitizer on),
 #   3. under valgrind --leak-check=full, linked with the static library,
-# then tests the CMake package (install tree, build tree, pkg-config).
+# then tests the CMake package (install tree, build tree, pkg-config, and
+# a plain `cargo build` into the target directory it shares: two more
+# compilations of the crate).
 #
 # Usage: bash tests/c/run.sh        (from anywhere; idempotent)
 # Env:   CARGO_TARGET_DIR           cargo's target directory (default: <crate>/target)
@@ -257,6 +259,50 @@ if [[ ${PMC_SKIP_CMAKE:-0} != 1 ]]; then
             "$OUT/consumer-absinc"
     }
     run_test pkgconfig_absolute_includedir absolute_includedir
+
+    # A plain `cargo build` into the target directory the CMake build shares
+    # links the library without its SONAME (build.rs adds it only with
+    # PRECISEMC_SONAME). `cmake --install`, which does not build, refuses
+    # it; `cmake --build` runs cargo again, which relinks it with the SONAME
+    # (CMake's file dependencies did not see the difference: the install got
+    # the library without a SONAME, and consumers linked against it recorded
+    # its absolute path). Last: the target directory is left as it was.
+    plain_cargo_build() {
+        (cd "$ROOT" && env -u PRECISEMC_SONAME cargo build --release --lib >&2) &&
+            [[ -z $(soname_of "$LIB_DIR/libprecisemc.so") ]]
+    }
+    install_refuses_library_without_soname() {
+        local prefix=$OUT/prefix-plain msg
+        rm -rf "$prefix"
+        plain_cargo_build || { log "the plain cargo build failed or gave a SONAME"; return 1; }
+        if msg=$(cmake --install "$CB" --prefix "$prefix" 2>&1); then
+            log "installed a library without a SONAME"
+            return 1
+        fi
+        log "$msg"
+        # CMake wraps the message: compare it on one line.
+        msg=$(tr -s ' \n' ' ' <<<"$msg")
+        grep -F "libprecisemc.so has no SONAME, not $SONAME" <<<"$msg" >/dev/null &&
+            grep -F "Run \`cmake --build $CB\`" <<<"$msg" >/dev/null
+    }
+    build_relinks_library_without_soname() {
+        local prefix=$OUT/prefix-plain dir=$OUT/consumer-plain
+        rm -rf "$prefix" "$dir"
+        # Independent of the test above: the scenario of a plain build first.
+        if [[ -n $(soname_of "$LIB_DIR/libprecisemc.so") ]]; then
+            plain_cargo_build || { log "the plain cargo build failed or gave a SONAME"; return 1; }
+        fi
+        cmake --build "$CB" && cmake --install "$CB" --prefix "$prefix" || return 1
+        local real=$prefix/lib/libprecisemc.so.$version
+        [[ $(soname_of "$real") == "$SONAME" ]] || { log "$real: SONAME '$(soname_of "$real")'"; return 1; }
+        [[ $(soname_of "$LIB_DIR/libprecisemc.so") == "$SONAME" ]] || return 1
+        cmake -S "$ROOT/tests/cmake_consumer" -B "$dir" -DCMAKE_PREFIX_PATH="$prefix" &&
+            cmake --build "$dir" &&
+            needs_soname "$dir/consumer_shared" &&
+            "$dir/consumer_shared"
+    }
+    run_test cmake_install_refuses_library_without_soname install_refuses_library_without_soname
+    run_test cmake_build_relinks_library_without_soname build_relinks_library_without_soname
 fi
 
 finish
