@@ -350,8 +350,9 @@ typedef struct pmc_volume {
      * x, y and z. All zero means contiguous with x fastest, i.e.
      * `{1, dims[0], dims[0] * dims[1]}`. Since `data` is the first
      * addressed element, negative strides address memory before it and
-     * are rejected. A zero stride on some axes but not all is rejected
-     * too: it would read one sample for a whole axis.
+     * are rejected (the message names the axis and the stride). A zero
+     * stride on some axes but not all is rejected too: it would read one
+     * sample for a whole axis.
      */
     int64_t strides[3];
     /**
@@ -659,8 +660,8 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * isovalue or point, a point outside the volume's representable index
  * range (`(p - origin) / spacing` overflows) or more than 1e60 cells
  * outside the volume (`precisemc::accuracy::MAX_MEASURE_REACH`), a point
- * id out of range,
- * or `density > 1024`;
+ * id negative or not below `point_count` (the message names the first
+ * such triangle, its id and the point count), or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
  * made. Uses all cores, on the extraction's helper threads beside the
  * calling thread (where a limit on threads lets only some start, those,

@@ -126,7 +126,8 @@ pub struct Distance {
 /// move the volume's origin by `spacing * offset` instead.) Triangles
 /// index `points`. Errors: invalid volume, non-finite isovalue or points,
 /// points farther than [`MAX_MEASURE_REACH`] cells outside the volume,
-/// triangle indices out of range, `density` outside `1..=1024`, tolerance
+/// triangle indices out of range ([`Error::PointIdOutOfRange`]), `density`
+/// outside `1..=1024`, tolerance
 /// below [`MIN_TOLERANCE`] (or not finite), relative tolerance outside
 /// `[0, 1)`; [`Error::OutOfMemory`] when the copy of the points (24 bytes
 /// each) cannot be allocated. Runs on the calling thread and the
@@ -160,12 +161,19 @@ pub fn measure(
     if points.iter().flatten().any(|c| !c.is_finite()) {
         return Err(Error::InvalidMeasure("points must be finite"));
     }
-    if triangles
-        .iter()
-        .flatten()
-        .any(|&v| v >= points.len() as u64)
-    {
-        return Err(Error::InvalidMeasure("triangle index out of range"));
+    // The first bad id, named with its triangle: a mesh of millions of
+    // triangles is otherwise hard to search.
+    let bad = triangles.iter().enumerate().find_map(|(t, tri)| {
+        tri.iter()
+            .find(|&&id| id >= points.len() as u64)
+            .map(|&id| (t, id))
+    });
+    if let Some((triangle, id)) = bad {
+        return Err(Error::PointIdOutOfRange {
+            triangle,
+            id,
+            points: points.len(),
+        });
     }
     let threads = if options.threads == 0 {
         std::thread::available_parallelism().map_or(1, |n| n.get())

@@ -136,6 +136,20 @@ pub enum Error {
     /// Invalid input to [`crate::accuracy::measure`] (the reason).
     #[error("invalid mesh or settings for the distance measure: {0}")]
     InvalidMeasure(&'static str),
+    /// A triangle given to [`crate::accuracy::measure`] names a point the
+    /// mesh does not have.
+    #[error(
+        "invalid mesh for the distance measure: triangle {triangle} has point id {id}, \
+         but the mesh has {points} points"
+    )]
+    PointIdOutOfRange {
+        /// The triangle's position in the triangle array.
+        triangle: usize,
+        /// Its point id, `>= points`.
+        id: u64,
+        /// The number of points.
+        points: usize,
+    },
 }
 
 /// A number in a message: as Rust prints it, but in scientific notation

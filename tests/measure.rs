@@ -210,10 +210,21 @@ fn invalid_input_is_an_error() {
         measure(&vol, f64::NAN, &p, &[[0, 0, 0]], &o),
         Err(Error::InvalidIsovalue(_))
     ));
-    assert!(matches!(
-        measure(&vol, 0.0, &p, &[[0, 0, 1]], &o),
-        Err(Error::InvalidMeasure(_))
-    ));
+    // The first bad id, with its triangle and the point count.
+    let e = measure(&vol, 0.0, &p, &[[0, 0, 0], [0, 0, 0], [0, 7, 1]], &o).unwrap_err();
+    assert_eq!(
+        e,
+        Error::PointIdOutOfRange {
+            triangle: 2,
+            id: 7,
+            points: 1
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "invalid mesh for the distance measure: triangle 2 has point id 7, \
+         but the mesh has 1 points"
+    );
     assert!(matches!(
         measure(&vol, 0.0, &[[f64::NAN, 0.0, 0.0]], &[], &o),
         Err(Error::InvalidMeasure(_))
@@ -582,6 +593,46 @@ fn c_api_names_points_beyond_the_index_range() {
     let (s, msg) = call(&cv, &far);
     assert_eq!(s, PmcStatus::InvalidArgument);
     assert!(msg.contains("is not finite"), "{msg}");
+}
+
+/// Point ids out of range or negative are named with their triangle (the
+/// message was "triangle index out of range" alone).
+#[test]
+fn c_api_names_bad_point_ids() {
+    let values = [0.0f64; 8];
+    let cv = c_volume(&values, [2, 2, 2], [0.0; 3], [1.0; 3]);
+    let pts = [0.0, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.5, 0.0];
+    let call = |tri: &[i64]| {
+        let mut out = pmc_distance::default();
+        let s = unsafe {
+            pmc_measure_distance(
+                &cv,
+                0.5,
+                pts.as_ptr(),
+                3,
+                tri.as_ptr(),
+                tri.len() as u64 / 3,
+                0,
+                &mut out,
+            )
+        };
+        (s, last_error())
+    };
+    assert_eq!(call(&[0, 1, 2, 2, 1, 0]).0, PmcStatus::Ok);
+    let (s, msg) = call(&[0, 1, 2, 0, 1, 2, 0, 3, 2]);
+    assert_eq!(s, PmcStatus::InvalidArgument);
+    assert_eq!(
+        msg,
+        "invalid mesh for the distance measure: triangle 2 has point id 3, \
+         but the mesh has 3 points"
+    );
+    let (s, msg) = call(&[0, 1, 2, 0, 1, -4]);
+    assert_eq!(s, PmcStatus::InvalidArgument);
+    assert_eq!(
+        msg,
+        "invalid mesh for the distance measure: triangle 1 has point id -4; \
+         point ids must be >= 0"
+    );
 }
 
 /// The C API's view of a contiguous float64 volume.

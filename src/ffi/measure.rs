@@ -52,8 +52,8 @@ pub struct pmc_distance {
 /// isovalue or point, a point outside the volume's representable index
 /// range (`(p - origin) / spacing` overflows) or more than 1e60 cells
 /// outside the volume (`precisemc::accuracy::MAX_MEASURE_REACH`), a point
-/// id out of range,
-/// or `density > 1024`;
+/// id negative or not below `point_count` (the message names the first
+/// such triangle, its id and the point count), or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
 /// made. Uses all cores, on the extraction's helper threads beside the
 /// calling thread (where a limit on threads lets only some start, those,
@@ -118,9 +118,12 @@ pub unsafe extern "C" fn pmc_measure_distance(
         let mut tris = Vec::new();
         tris.try_reserve_exact(ids.len() / 3)
             .map_err(|_| failure(crate::Error::OutOfMemory(ids.len() * 8)))?;
-        for t in ids.chunks_exact(3) {
-            if t.iter().any(|&id| id < 0) {
-                return Err(Failure::invalid("negative point id in triangles"));
+        for (n, t) in ids.chunks_exact(3).enumerate() {
+            if let Some(&id) = t.iter().find(|&&id| id < 0) {
+                return Err(Failure::invalid(format!(
+                    "invalid mesh for the distance measure: triangle {n} has point id {id}; \
+                     point ids must be >= 0"
+                )));
             }
             tris.push([t[0] as u64, t[1] as u64, t[2] as u64]);
         }

@@ -36,8 +36,9 @@ pub struct pmc_volume {
     /// x, y and z. All zero means contiguous with x fastest, i.e.
     /// `{1, dims[0], dims[0] * dims[1]}`. Since `data` is the first
     /// addressed element, negative strides address memory before it and
-    /// are rejected. A zero stride on some axes but not all is rejected
-    /// too: it would read one sample for a whole axis.
+    /// are rejected (the message names the axis and the stride). A zero
+    /// stride on some axes but not all is rejected too: it would read one
+    /// sample for a whole axis.
     pub strides: [i64; 3],
     /// World position of global sample index (0, 0, 0); finite.
     pub origin: [f64; 3],
@@ -48,10 +49,10 @@ pub struct pmc_volume {
     pub spacing: [f64; 3],
 }
 
-/// Builds a core volume over `v`'s samples, after checking everything a
-/// slice needs (non-null, aligned data; a byte length that fits `isize`)
-/// and running [`Volume::validate`] (dims, spacing, origin, every
-/// addressed element in `0..len`).
+/// Builds a core volume over `v`'s samples, after checking the strides'
+/// signs and everything a slice needs (non-null, aligned data; a byte
+/// length that fits `isize`) and running [`Volume::validate`] (dims,
+/// spacing, origin, every addressed element in `0..len`).
 ///
 /// # Safety
 ///
@@ -67,6 +68,17 @@ pub(crate) unsafe fn core_volume<'a>(
     }
     let ty = PmcScalarType::from_raw(v.scalar_type)
         .ok_or_else(|| Failure::invalid(format!("unknown scalar type {}", v.scalar_type)))?;
+    // `data` is the lowest element addressed (there is no offset field as
+    // in `Volume`, where a negative stride pairs with one): a negative
+    // stride always reads before it. Said so, rather than as the negative
+    // sample index `Volume::validate` would name.
+    if let Some(axis) = v.strides.iter().position(|&s| s < 0) {
+        return Err(Failure::invalid(format!(
+            "invalid volume: stride {axis} is {}; strides must not be negative \
+             (data is the lowest element addressed)",
+            v.strides[axis]
+        )));
+    }
     // SAFETY: forwarded contract.
     let samples = unsafe { samples(ty, v.data, v.len)? };
     let volume = Volume::new(samples, v.dims)

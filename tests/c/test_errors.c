@@ -240,15 +240,20 @@ static void test_extract_errors(void) {
     v.strides[1] = 8;
     v.strides[2] = 65; /* one past */
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
-    v.strides[2] = -64; /* before data */
-    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
-    v.strides[0] = -1;
+    /* Negative strides (before data): named with their axis, not as the
+     * negative sample index they would address. */
+    v.strides[2] = -64;
+    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT,
+                "invalid volume: stride 2 is -64; strides must not be negative");
+    v.strides[0] = -1; /* x reversed: {-1, 8, 64} */
     v.strides[2] = 64;
-    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
+    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT,
+                "invalid volume: stride 0 is -1; strides must not be negative");
     v.strides[0] = INT64_MAX;
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
     v.strides[0] = INT64_MIN;
-    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
+    EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT,
+                "stride 0 is -9223372036854775808; strides must not be negative");
     v.strides[0] = v.strides[1] = v.strides[2] = INT64_MAX;
     EXPECT_FAIL(&v, 3.0, NULL, PMC_STATUS_INVALID_ARGUMENT, "outside the buffer");
     v = good;
