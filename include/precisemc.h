@@ -537,6 +537,11 @@ typedef void (*pmc_task_fn)(void *task_data, uint64_t index);
  * exception thrown out of it aborts the process (catch it inside; a
  * batch it did not finish is reported by `pmc_extract`).
  *
+ * A task refines cells recursively and needs about 48 KiB of stack at
+ * the deepest settings (measured with max level 10, epsilon 1e-6, each
+ * rule and reconstruction): run tasks on threads of at least 256 KiB,
+ * as for the thread that calls `pmc_extract` (see there).
+ *
  * With VTK, for instance:
  * `vtkSMPTools::For(0, count, [&](vtkIdType b, vtkIdType e) { for (vtkIdType i = b; i < e; ++i) task(task_data, i); });`
  */
@@ -622,6 +627,16 @@ size_t pmc_last_error_message(char *buf, size_t len);
  * their cells. Thread-safe: concurrent calls may share `volume` and
  * `options`.
  *
+ * Stack: the calling thread refines cells itself, recursively (one
+ * level per recursion, up to max level 10), and needs about 56 KiB of
+ * stack at the deepest settings (measured with max level 10, epsilon
+ * 1e-6, each rule and reconstruction; a thread of 48 KiB crashed, 58
+ * KiB was the least that worked). Give a thread that calls it at least
+ * 256 KiB (`pthread_attr_setstacksize`); a process's main thread and
+ * default threads have more on Linux (8 MiB), macOS (512 KiB) and
+ * Windows (1 MiB). The library's own helper threads have 8 MiB; for an
+ * executor's threads see `pmc_executor_fn`.
+ *
  * # Safety
  *
  * `volume` must be `NULL` or point to a `pmc_volume` whose `data` is
@@ -666,7 +681,8 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * made. Uses all cores, on the extraction's helper threads beside the
  * calling thread (where a limit on threads lets only some start, those,
  * the calling thread at least); the result does not depend on their
- * number.
+ * number. The calling thread needs about 40 KiB of stack: give it at
+ * least 256 KiB, as for `pmc_extract`.
  *
  * # Safety
  *

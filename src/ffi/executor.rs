@@ -24,6 +24,11 @@ pub type pmc_task_fn = unsafe extern "C" fn(task_data: *mut c_void, index: u64);
 /// exception thrown out of it aborts the process (catch it inside; a
 /// batch it did not finish is reported by `pmc_extract`).
 ///
+/// A task refines cells recursively and needs about 48 KiB of stack at
+/// the deepest settings (measured with max level 10, epsilon 1e-6, each
+/// rule and reconstruction): run tasks on threads of at least 256 KiB,
+/// as for the thread that calls `pmc_extract` (see there).
+///
 /// With VTK, for instance:
 /// `vtkSMPTools::For(0, count, [&](vtkIdType b, vtkIdType e) { for (vtkIdType i = b; i < e; ++i) task(task_data, i); });`
 pub type pmc_executor_fn = Option<

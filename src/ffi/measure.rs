@@ -58,7 +58,8 @@ pub struct pmc_distance {
 /// made. Uses all cores, on the extraction's helper threads beside the
 /// calling thread (where a limit on threads lets only some start, those,
 /// the calling thread at least); the result does not depend on their
-/// number.
+/// number. The calling thread needs about 40 KiB of stack: give it at
+/// least 256 KiB, as for `pmc_extract`.
 ///
 /// # Safety
 ///
