@@ -70,6 +70,18 @@ impl Hasher for KeyHasher {
 
 pub(crate) type KeyMap<V> = HashMap<[u64; 3], V, BuildHasherDefault<KeyHasher>>;
 
+/// The float next to the finite `x` towards +infinity (`up`) or
+/// -infinity (`f64::next_up` / `next_down`, newer than the crate's
+/// minimum Rust).
+fn next_float(x: f64, up: bool) -> f64 {
+    if x == 0.0 {
+        let tiny = f64::from_bits(1);
+        return if up { tiny } else { -tiny };
+    }
+    let bits = x.to_bits();
+    f64::from_bits(if (x > 0.0) == up { bits + 1 } else { bits - 1 })
+}
+
 #[inline]
 pub(crate) fn key(p: DVec3) -> [u64; 3] {
     // +0.0 and -0.0 weld together.
@@ -1117,7 +1129,28 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         1 => (y, DVec3::new(x, y + t, z)),
                         _ => (z, DVec3::new(x, y, z + t)),
                     };
-                    let moved = base + t;
+                    let mut moved = base + t;
+                    let mut gp = gp;
+                    if edge_filter.is_some() && (moved == base || moved == base + 1.0) {
+                        // A cubic's crossing within rounding of a corner
+                        // (samples a rounding away from the isovalue) would
+                        // weld with the crossings of the corner's other
+                        // edges: a polygon visiting two of them apart then
+                        // touches itself there, and the patch refined from
+                        // it is not a manifold (a crack; a debug assertion).
+                        // The point stays on its own edge, one float off
+                        // the corner (the offset is exact).
+                        moved = next_float(
+                            if moved == base { base } else { base + 1.0 },
+                            moved == base,
+                        );
+                        let t = moved - base;
+                        gp = match ax {
+                            0 => DVec3::new(x + t, y, z),
+                            1 => DVec3::new(x, y + t, z),
+                            _ => DVec3::new(x, y, z + t),
+                        };
+                    }
                     if REFINE || count_only {
                         loc[e] = gp - cell_f;
                     }
@@ -2015,6 +2048,31 @@ fn report_emitted<T: Scalar, F: ReconstructionFilter>(
 mod tests {
     use super::*;
     use crate::{Rule, Topology};
+
+    #[test]
+    fn next_float_steps_one_float() {
+        for x in [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            7.0,
+            -7.0,
+            1e300,
+            -3.5e-310,
+            2f64.powi(52),
+        ] {
+            let (up, down) = (next_float(x, true), next_float(x, false));
+            assert!(up > x && down < x, "{x}");
+            // Nothing between: the midpoint rounds to one of the ends.
+            for (a, b) in [(x, up), (down, x)] {
+                let m = a / 2.0 + b / 2.0;
+                assert!(m == a || m == b, "{a} {b}");
+            }
+        }
+        assert_eq!(next_float(1.0, true), 1.0 + f64::EPSILON);
+        assert_eq!(next_float(1.0, false), 1.0 - f64::EPSILON / 2.0);
+    }
 
     fn random_values(n: usize, seed: u64, f: impl Fn(f64) -> f64) -> Vec<f64> {
         let mut x = seed;
