@@ -30,7 +30,7 @@ use crate::mc::{cell_triangles_borrowed, classic, Patch};
 use crate::memory::advise_huge_pages;
 use crate::mesh::{Mesh, Stats};
 use crate::near_bound;
-use crate::normals::compute_normals;
+use crate::normals::{compute_gradients, compute_normals};
 use crate::options::{Options, Reconstruction, Topology};
 use crate::par::{Exec, OnCaller};
 use crate::project::edge_crossing;
@@ -121,7 +121,7 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// takes longer); it then returns [`Error::Aborted`], also when that is
 /// the answer to the last call, with 1.0 (the mesh is then dropped). Welding the
 /// workers' outputs into one mesh (before the call with 0.97) and the
-/// normals (after it) make no calls: on meshes of tens of millions of
+/// normals and gradients (after it) make no calls: on meshes of tens of millions of
 /// triangles they take seconds, during which no stop can be asked.
 pub fn extract_with_progress(
     volume: &Volume<'_>,
@@ -137,6 +137,7 @@ pub fn extract_with_progress(
         executor: None,
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
         extreme: None,
+        sample_scale: [1.0, 1.0],
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -170,6 +171,7 @@ pub fn extract_with_executor(
         executor: Some(executor),
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
         extreme: None,
+        sample_scale: [1.0, 1.0],
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -198,6 +200,7 @@ pub(crate) fn extract_index_points(
         executor,
         serial_assembly_triangles: SERIAL_ASSEMBLY_TRIANGLES,
         extreme: None,
+        sample_scale: [1.0, 1.0],
     };
     extract_in_slabs(volume, isovalue, options, progress, how)
 }
@@ -225,6 +228,10 @@ struct How<'e> {
     /// Set when a crossed cell's samples (or the isovalue) are of a
     /// magnitude the products of contouring cannot take (see `magnitude`).
     extreme: Option<&'e AtomicBool>,
+    /// The two powers of two whose product the samples were scaled by (see
+    /// `magnitude`; `[1, 1]` for the caller's own): gradients are divided
+    /// by them, so that they are those of the caller's samples.
+    sample_scale: [f64; 2],
 }
 
 /// [`extract_with_progress`], run as `how` says.
@@ -278,7 +285,8 @@ fn extract_in_slabs(
     if stopped.get() {
         return Err(Error::Aborted);
     }
-    let Some((samples, iso)) = crate::magnitude::scaled_copy(volume, isovalue, &mut progress)?
+    let Some((samples, iso, factors)) =
+        crate::magnitude::scaled_copy(volume, isovalue, &mut progress)?
     else {
         // (Only that cell is extreme: contoured as it is, unscaled.)
         return crate::volume::with_grid!(volume, |grid| run(
@@ -302,7 +310,10 @@ fn extract_in_slabs(
         iso,
         options,
         &mut progress,
-        how
+        How {
+            sample_scale: factors,
+            ..how
+        }
     ))
 }
 
@@ -784,13 +795,23 @@ fn run_with<T: Scalar, F: ReconstructionFilter>(
         return Err(Error::Aborted);
     }
     let t_n = Instant::now();
-    // Normals are those of the trilinear interpolant, whatever the filter.
+    // Normals and gradients are those of the trilinear interpolant,
+    // whatever the filter.
     let trilinear = Trilinear::new(grid);
     mesh.normals = compute_normals(
         &trilinear,
         volume,
         &mesh.index_points,
         options.normals,
+        exec,
+    )?;
+    mesh.gradients = compute_gradients(
+        &trilinear,
+        volume,
+        &mesh.index_points,
+        options.gradients,
+        options.normals,
+        how.sample_scale,
         exec,
     )?;
     stats.time_normals = t_n.elapsed().as_secs_f64();
@@ -2110,6 +2131,7 @@ mod tests {
             executor,
             serial_assembly_triangles: 0,
             extreme: None,
+            sample_scale: [1.0, 1.0],
         };
         extract_in_slabs(v, 0.0, &o, &mut go, how).unwrap()
     }

@@ -57,8 +57,12 @@ pub(crate) fn factors(m: f64) -> [f64; 2] {
     [2f64.powi(half), 2f64.powi(-e - half)]
 }
 
-/// A copy of an `f64` volume's samples times a power of two, and the
-/// isovalue times the same, when the largest magnitude among the finite
+/// [`scaled_copy`]'s samples, isovalue and factors.
+pub(crate) type Scaled = (Vec<f64>, f64, [f64; 2]);
+
+/// A copy of an `f64` volume's samples times a power of two, the
+/// isovalue times the same and the power of two (as the two factors of
+/// [`factors`], applied one after the other), when the largest magnitude among the finite
 /// samples and the isovalue lies outside `[2^-256, 2^256]` (and is not 0);
 /// `None` otherwise (other types never come near: `f32` stays below 2^128,
 /// 64-bit integers below 2^64). NaN and infinite samples stay as they are.
@@ -68,7 +72,7 @@ pub(crate) fn scaled_copy(
     volume: &Volume<'_>,
     iso: f64,
     progress: &mut dyn FnMut(f64) -> ControlFlow<()>,
-) -> Result<Option<(Vec<f64>, f64)>, Error> {
+) -> Result<Option<Scaled>, Error> {
     let Samples::F64(data) = volume.samples else {
         return Ok(None);
     };
@@ -103,7 +107,7 @@ pub(crate) fn scaled_copy(
             }
         }
     }
-    Ok(Some((out, iso * a * b)))
+    Ok(Some((out, iso * a * b, [a, b])))
 }
 
 #[cfg(test)]
@@ -137,12 +141,16 @@ mod tests {
         let v = Volume::new(plain.as_slice(), [3, 3, 3]);
         assert!(scaled_copy(&v, 0.5, &mut go).unwrap().is_none());
         // A huge isovalue alone makes the volume extreme.
-        let (copy, iso) = scaled_copy(&v, 1e200, &mut go).unwrap().unwrap();
+        let (copy, iso, [a, b]) = scaled_copy(&v, 1e200, &mut go).unwrap().unwrap();
         assert!((1.0..2.0).contains(&iso));
+        // The factors are those applied: the copy divided by them is the
+        // volume again.
+        assert_eq!(iso / a / b, 1e200);
+        assert!(copy.iter().zip(&plain).all(|(c, p)| c / a / b == *p));
         assert_eq!(copy.len(), 27);
         let huge: Vec<f64> = plain.iter().map(|x| x * 1e200).collect();
         let v = Volume::new(huge.as_slice(), [3, 3, 3]);
-        let (copy, iso) = scaled_copy(&v, 0.0, &mut go).unwrap().unwrap();
+        let (copy, iso, _) = scaled_copy(&v, 0.0, &mut go).unwrap().unwrap();
         assert_eq!(iso, 0.0);
         assert!(copy.iter().all(|x| x.abs() < 2.0) && copy.iter().any(|x| x.abs() >= 1.0));
         let small: Vec<f32> = (0..27).map(|x| x as f32 * 1e-30).collect();

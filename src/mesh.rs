@@ -75,7 +75,7 @@ pub struct Stats {
     pub time_refine: f64,
     /// Wall time spent welding and assembling the output, seconds.
     pub time_assemble: f64,
-    /// Wall time spent on normals, seconds.
+    /// Wall time spent on normals and gradients, seconds.
     pub time_normals: f64,
     /// Total wall time, seconds.
     pub time_total: f64,
@@ -150,6 +150,11 @@ pub struct Mesh {
     /// Unit normals per point (empty when not requested); (0, 0, 0) where
     /// the data gives no direction (see [`crate::NormalMode`]).
     pub normals: Vec<[f32; 3]>,
+    /// Scalar gradient per point, in sample value per world length unit,
+    /// pointing towards higher values (empty unless
+    /// [`crate::Options::gradients`]); (0, 0, 0) where the normal is, a
+    /// component beyond float32's range infinite.
+    pub gradients: Vec<[f32; 3]>,
     /// Refinement level per triangle (0 = Marching Cubes triangle).
     pub levels: Vec<u8>,
     /// Statistics of the extraction.

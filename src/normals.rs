@@ -118,15 +118,69 @@ pub(crate) fn compute_normals<T: Scalar>(
     mode: NormalMode,
     exec: Exec<'_>,
 ) -> Result<Vec<[f32; 3]>, Error> {
-    let mut normals = Vec::new();
     if mode == NormalMode::None {
-        return Ok(normals);
+        return Ok(Vec::new());
     }
-    reserve(&mut normals, index_points.len())?;
+    let spacing = volume.spacing;
+    per_point(filter, index_points, mode, exec, |g| finish(g, spacing))
+}
+
+/// Gradients for `index_points` when `on` (else empty): those the normals
+/// of `mode` are made of (the exact trilinear ones for
+/// [`NormalMode::None`]), in world units and not negated, so that a normal
+/// is the negated, normalised gradient of its point; divided by the two
+/// factors of `sample_scale` the filter's samples were scaled by (see
+/// `magnitude`). An error when their memory is not available.
+pub(crate) fn compute_gradients<T: Scalar>(
+    filter: &Trilinear<'_, T>,
+    volume: &Volume<'_>,
+    index_points: &[[f64; 3]],
+    on: bool,
+    mode: NormalMode,
+    sample_scale: [f64; 2],
+    exec: Exec<'_>,
+) -> Result<Vec<[f32; 3]>, Error> {
+    if !on {
+        return Ok(Vec::new());
+    }
+    let mode = match mode {
+        NormalMode::None => NormalMode::Gradient,
+        m => m,
+    };
+    let spacing = volume.spacing;
+    let [a, b] = sample_scale;
+    per_point(filter, index_points, mode, exec, |g| {
+        world_gradient(g, spacing, a, b)
+    })
+}
+
+/// An index-space gradient of samples scaled by `a * b` in world units of
+/// the unscaled ones: per axis, divided by the spacing (the core's frame
+/// is axis-aligned), then by `a` and `b` (powers of two: exact, and each
+/// step keeps a true value within `f64`'s range there). Beyond float32's
+/// range (a tiny spacing) a component is infinite, as the true value is.
+fn world_gradient(g: DVec3, spacing: [f64; 3], a: f64, b: f64) -> [f32; 3] {
+    let w = |c: f64, s: f64| (c / s / a / b) as f32;
+    [w(g.x, spacing[0]), w(g.y, spacing[1]), w(g.z, spacing[2])]
+}
+
+/// `out(gradient)` for each of `index_points`, where `gradient` is the
+/// index-space gradient `mode` (not [`NormalMode::None`]) takes at the
+/// point; (0, 0, 0) where neither way finds a finite one. Runs on `exec`
+/// in the points' order (deterministic); an error when the output's
+/// memory is not available.
+fn per_point<T: Scalar, R: Send>(
+    filter: &Trilinear<'_, T>,
+    index_points: &[[f64; 3]],
+    mode: NormalMode,
+    exec: Exec<'_>,
+    out: impl Fn(DVec3) -> R + Sync + Send,
+) -> Result<Vec<R>, Error> {
+    let mut result = Vec::new();
+    reserve(&mut result, index_points.len())?;
     let g = &filter.grid;
     let dims = g.dims;
     let off = g.index_offset;
-    let spacing = volume.spacing;
     // Central differences at the grid points, interpolated trilinearly at
     // the point (VTK's way); one-sided at the volume's faces and beside a
     // non-finite sample.
@@ -195,25 +249,24 @@ pub(crate) fn compute_normals<T: Scalar>(
     };
     match mode {
         NormalMode::None => {}
-        NormalMode::Gradient => exec.extend(&mut normals, index_points, |p| {
+        NormalMode::Gradient => exec.extend(&mut result, index_points, |p| {
             let p = DVec3::from_array(*p);
             // A point on a sample takes the gradient of the cell on its
             // upper side, which is flat where that side's samples all
             // equal it (a label volume contoured at a label's value):
-            // the central differences there instead, never a zero normal
-            // where the data has a slope.
-            match gradient(p) {
-                Some(n) if n != DVec3::ZERO => finish(n, spacing),
-                found => finish(differences(p).or(found).unwrap_or(DVec3::ZERO), spacing),
-            }
+            // the central differences there instead, never a zero
+            // gradient where the data has a slope.
+            out(match gradient(p) {
+                Some(n) if n != DVec3::ZERO => n,
+                found => differences(p).or(found).unwrap_or(DVec3::ZERO),
+            })
         })?,
-        NormalMode::CentralDifference => exec.extend(&mut normals, index_points, |p| {
+        NormalMode::CentralDifference => exec.extend(&mut result, index_points, |p| {
             let p = DVec3::from_array(*p);
-            let n = differences(p)
+            out(differences(p)
                 .or_else(|| gradient(p))
-                .unwrap_or(DVec3::ZERO);
-            finish(n, spacing)
+                .unwrap_or(DVec3::ZERO))
         })?,
     }
-    Ok(normals)
+    Ok(result)
 }

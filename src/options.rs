@@ -108,6 +108,16 @@ pub struct Options {
     pub topology: Topology,
     /// Normals to compute. Default [`NormalMode::None`].
     pub normals: NormalMode,
+    /// Whether to compute the gradient of the scalar field at each output
+    /// point ([`crate::Mesh::gradients`], as `vtkFlyingEdges3D`'s
+    /// `ComputeGradients`): un-normalised, pointing towards higher values,
+    /// in sample value per world length unit (the index-space gradient
+    /// divided by the spacing per axis). Computed as the normals are: by
+    /// [`NormalMode::CentralDifference`] in that mode, else by the exact
+    /// trilinear gradient of [`NormalMode::Gradient`], so that with both
+    /// requested each normal is its point's negated, normalised gradient
+    /// (to float32 rounding). Default `false`.
+    pub gradients: bool,
     /// Cap on output triangles; 0 = no cap of the caller's (the internal
     /// safety cap [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
     pub max_triangles: u64,
@@ -138,6 +148,7 @@ impl Default for Options {
             rule: Rule::A1,
             topology: Topology::Trilinear,
             normals: NormalMode::None,
+            gradients: false,
             max_triangles: 0,
             threads: 0,
             reconstruction: Reconstruction::Trilinear,

@@ -164,6 +164,7 @@ pub(crate) fn remesh(
         rule: options.rule,
         topology: Topology::Trilinear,
         normals: NormalMode::None,
+        gradients: false,
         max_triangles: 0,
         threads: 1,
         reconstruction: Reconstruction::Trilinear,

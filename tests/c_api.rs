@@ -294,6 +294,7 @@ fn c_api_equals_rust_api() {
                 PmcNormals::Gradient => NormalMode::Gradient,
                 PmcNormals::CentralDifference => NormalMode::CentralDifference,
             },
+            gradients: false,
             max_triangles: cap,
             threads: 1,
             reconstruction: precisemc::Reconstruction::Trilinear,

@@ -7,7 +7,8 @@
 //! The bytes are decoded into a volume (dimensions, scalar type, memory
 //! layout, values including NaN, infinities, denormals, type extremes and
 //! values exactly at the isovalue), an isovalue, options (extreme epsilon
-//! and max level, triangle cap, threads, normals, reconstruction filter)
+//! and max level, triangle cap, threads, normals, gradients,
+//! reconstruction filter)
 //! and a progress callback
 //! that may abort at its n-th call. Every decoded input is valid to pass:
 //! invalid ones must be rejected with the documented error. The harness
@@ -20,6 +21,7 @@
 //! - the mesh is sane: consistent lengths, finite points inside the
 //!   volume's box, indices in range, no triangle with a repeated point,
 //!   levels and statistics within the options, unit (or zero) normals,
+//!   gradients never NaN and, beside normals, their negated direction,
 //!   the triangle cap respected;
 //! - the output does not depend on the memory layout nor on the thread
 //!   count (bit-identical to a contiguous copy run with other threads);
@@ -592,6 +594,9 @@ pub fn decode_options(r: &mut Reader<'_>) -> (Options, Option<Error>) {
         NormalMode::CentralDifference,
         NormalMode::None,
     ][((a >> 3) & 3) as usize];
+    // From bits already read (inputs keep their meaning): gradients alone
+    // with the second code of no normals, beside normals with rules A1, B.
+    let gradients = (a >> 3) & 3 == 3 || (a & 1 != 0 && normals != NormalMode::None);
     let max_triangles = match (a >> 5) & 7 {
         0..=2 => 0,
         3 => 1,
@@ -607,6 +612,7 @@ pub fn decode_options(r: &mut Reader<'_>) -> (Options, Option<Error>) {
         rule,
         topology,
         normals,
+        gradients,
         max_triangles,
         threads,
         // Decoded last, by `decode_reconstruction`.
@@ -786,6 +792,23 @@ pub fn check_mesh(m: &Mesh, case: &Case, o: &Options) {
             assert!(l == 0.0 || (l - 1.0).abs() < 1e-3, "normal {n:?}");
         }
     }
+    if !o.gradients {
+        assert!(m.gradients.is_empty());
+    } else {
+        assert_eq!(m.gradients.len(), np);
+        // Never NaN; where normals are on too, each normal is the negated,
+        // normalised gradient (where that is a normal float32 of finite
+        // length: beyond, the float32 gradient lost its direction).
+        assert!(m.gradients.iter().flatten().all(|c| !c.is_nan()));
+        for (n, g) in m.normals.iter().zip(&m.gradients) {
+            let g = g.map(f64::from);
+            let l = g[0].hypot(g[1]).hypot(g[2]);
+            if l.is_finite() && l > f64::from(f32::MIN_POSITIVE) {
+                let far = (0..3).any(|c| (f64::from(n[c]) + g[c] / l).abs() > 1e-3);
+                assert!(!far, "normal {n:?}, gradient {g:?}");
+            }
+        }
+    }
     // Known issues (README, Reliability): refinement may open the surface
     // when samples span more than about 1e30, and when a sample differs
     // from the isovalue by a rounding error of the value range (edge
@@ -816,19 +839,23 @@ pub fn check_closed(m: &Mesh) {
     );
 }
 
-type Bits = (Vec<[u64; 3]>, Vec<[u64; 3]>, Vec<[u32; 3]>);
+type Bits = (Vec<[u64; 3]>, Vec<[u64; 3]>, Vec<[u32; 3]>, Vec<[u32; 3]>);
 
 fn bits(m: &Mesh) -> Bits {
     (
         m.points.iter().map(|p| p.map(f64::to_bits)).collect(),
         m.index_points.iter().map(|p| p.map(f64::to_bits)).collect(),
         m.normals.iter().map(|p| p.map(f32::to_bits)).collect(),
+        m.gradients.iter().map(|p| p.map(f32::to_bits)).collect(),
     )
 }
 
 /// Whether two meshes are bit-identical (statistics except timings).
 pub fn assert_same(a: &Mesh, b: &Mesh, what: &str) {
-    assert!(bits(a) == bits(b), "{what}: points or normals differ");
+    assert!(
+        bits(a) == bits(b),
+        "{what}: points, normals or gradients differ"
+    );
     assert!(a.triangles == b.triangles, "{what}: triangles differ");
     assert!(a.levels == b.levels, "{what}: levels differ");
     let strip = |m: &Mesh| {
@@ -1291,6 +1318,7 @@ unsafe fn mesh_from_handle(mesh: *const ffi::pmc_mesh) -> Mesh {
                 .map(|c| [c[0], c[1], c[2]])
                 .collect()
         };
+        let gradients = Vec::new();
         let mut s = std::mem::MaybeUninit::<ffi::pmc_stats>::zeroed();
         assert_eq!(ffi::pmc_mesh_stats(mesh, s.as_mut_ptr()) as u32, 0);
         let s = s.assume_init();
@@ -1319,6 +1347,7 @@ unsafe fn mesh_from_handle(mesh: *const ffi::pmc_mesh) -> Mesh {
             index_points,
             triangles,
             normals,
+            gradients,
             levels,
             stats,
         }
