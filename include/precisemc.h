@@ -485,7 +485,7 @@ typedef struct pmc_stats {
      */
     double time_assemble;
     /**
-     * Wall time spent on normals, seconds.
+     * Wall time spent on normals and gradients, seconds.
      */
     double time_normals;
     /**
@@ -504,7 +504,8 @@ typedef struct pmc_stats {
  * any other value to stop: the callback is not called again, and
  * `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
  * and produces no mesh. Welding the workers' outputs into one mesh
- * (before the call with 0.97) and the normals (after it) make no calls:
+ * (before the call with 0.97) and the normals and gradients (after it)
+ * make no calls:
  * on meshes of tens of millions of triangles they take seconds, during
  * which no stop can be asked.
  * The callback must not call `pmc_options_*` on the options being used,
@@ -800,6 +801,24 @@ int64_t *pmc_mesh_take_triangles(struct pmc_mesh *mesh, uint64_t *out_count);
 const float *pmc_mesh_normals(const struct pmc_mesh *mesh);
 
 /**
+ * The scalar gradient at each point, in sample value per world length
+ * unit (the index-space gradient divided by the volume's spacing per
+ * axis), pointing towards higher sample values and not normalised, as
+ * `vtkFlyingEdges3D`'s "Gradients": `3 * pmc_mesh_point_count` floats.
+ * Computed as the normals of the mode set with `pmc_options_set_normals`
+ * are (the exact trilinear gradient with `PMC_NORMALS_NONE`): each normal
+ * is its point's negated, normalised gradient, and (0, 0, 0) where the
+ * normal is; a component beyond float's range is infinite. `NULL` when
+ * gradients were not requested (`pmc_options_set_gradients`) and for a
+ * `NULL` or empty mesh.
+ *
+ * # Safety
+ *
+ * `mesh` must be `NULL` or a live handle from `pmc_extract`.
+ */
+const float *pmc_mesh_gradients(const struct pmc_mesh *mesh);
+
+/**
  * Refinement level per triangle (0 = a Marching Cubes triangle): one
  * byte per output triangle (`pmc_stats.output_triangles`; still there
  * after `pmc_mesh_take_triangles`). `NULL` for a `NULL` mesh or one that
@@ -877,7 +896,7 @@ void pmc_mesh_free(struct pmc_mesh *mesh);
 /**
  * Creates options with the defaults: epsilon 0.01, max level 5, rule
  * `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
- * `PMC_NORMALS_NONE`, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
+ * `PMC_NORMALS_NONE`, no gradients, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
  * triangle cap, all cores, no progress callback, no executor (threads of
  * its own), index offset (0, 0, 0).
  *
@@ -986,6 +1005,23 @@ pmc_status pmc_options_set_topology(struct pmc_options *options, pmc_topology to
  * As for `pmc_options_set_epsilon`.
  */
 pmc_status pmc_options_set_normals(struct pmc_options *options, pmc_normals normals);
+
+/**
+ * Sets whether to compute the scalar gradient at each output point
+ * (`pmc_mesh_gradients`): `1` on, `0` off (the default). The gradients
+ * are computed as the normals of the mode set with
+ * `pmc_options_set_normals` are (by the exact trilinear gradient with
+ * `PMC_NORMALS_NONE`), so that with both on each normal is its point's
+ * negated, normalised gradient.
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) for any other
+ * value; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.
+ *
+ * # Safety
+ *
+ * As for `pmc_options_set_epsilon`.
+ */
+pmc_status pmc_options_set_gradients(struct pmc_options *options, int gradients);
 
 /**
  * Caps the number of output triangles: refinement stops at the highest

@@ -91,6 +91,14 @@ impl CMesh {
         } else {
             assert_eq!(self.slice(cn, 3 * np), &normals[..]);
         }
+        let bits32 = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let gradients: Vec<f32> = m.gradients.iter().flatten().copied().collect();
+        let cg = unsafe { pmc_mesh_gradients(h) };
+        if gradients.is_empty() {
+            assert!(cg.is_null());
+        } else {
+            assert_eq!(bits32(self.slice(cg, 3 * np)), bits32(&gradients));
+        }
         let mut s = pmc_stats::default();
         assert_eq!(unsafe { pmc_mesh_stats(h, &mut s) }, PmcStatus::Ok);
         let r = &m.stats;
@@ -265,9 +273,15 @@ fn c_api_equals_rust_api() {
             5000,
         ),
     ];
-    for (rule, topo, normals, eps, level, cap) in cases {
+    // Gradients in every other case: with and without normals of each mode.
+    for (case, (rule, topo, normals, eps, level, cap)) in cases.into_iter().enumerate() {
+        let gradients = case % 2 == 1;
         let o = pmc_options_new();
         unsafe {
+            assert_eq!(
+                pmc_options_set_gradients(o, gradients as c_int),
+                PmcStatus::Ok
+            );
             assert_eq!(pmc_options_set_rule(o, rule as u32), PmcStatus::Ok);
             assert_eq!(pmc_options_set_topology(o, topo as u32), PmcStatus::Ok);
             assert_eq!(pmc_options_set_normals(o, normals as u32), PmcStatus::Ok);
@@ -294,7 +308,7 @@ fn c_api_equals_rust_api() {
                 PmcNormals::Gradient => NormalMode::Gradient,
                 PmcNormals::CentralDifference => NormalMode::CentralDifference,
             },
-            gradients: false,
+            gradients,
             max_triangles: cap,
             threads: 1,
             reconstruction: precisemc::Reconstruction::Trilinear,
@@ -302,6 +316,10 @@ fn c_api_equals_rust_api() {
         let cm = c_extract(&cv, 5.5, o).unwrap();
         let rm = extract(&rv, 5.5, &ro).unwrap();
         assert!(!rm.triangles.is_empty());
+        assert_eq!(
+            rm.gradients.len(),
+            if gradients { rm.points.len() } else { 0 }
+        );
         cm.assert_equals(&rm);
         unsafe { pmc_options_free(o) };
     }
@@ -581,6 +599,45 @@ fn errors_map_to_statuses_with_messages() {
     assert_eq!(last_error(), "volume->data is NULL");
     let status = unsafe { CStr::from_ptr(pmc_status_string(PmcStatus::Aborted as u32)) };
     assert_eq!(status.to_str().unwrap(), "aborted by the progress callback");
+}
+
+/// `pmc_options_set_gradients` takes 0 or 1 only, as the setters of
+/// enumerations take their values only; `pmc_mesh_gradients` is `NULL`
+/// unless gradients were asked for.
+#[test]
+fn gradients_flag_is_checked_and_gradients_come_on_request() {
+    assert_eq!(
+        unsafe { pmc_options_set_gradients(ptr::null_mut(), 1) },
+        PmcStatus::NullArgument
+    );
+    assert_eq!(last_error(), "options is NULL");
+    assert!(unsafe { pmc_mesh_gradients(ptr::null()) }.is_null());
+    let data = sphere(8, [3.5, 3.5, 3.5]);
+    let cv = c_volume(&data, [8, 8, 8]);
+    let o = pmc_options_new();
+    // Off by default.
+    let m = c_extract(&cv, 2.0, o).unwrap();
+    assert!(unsafe { pmc_mesh_point_count(m.0) } > 0);
+    assert!(unsafe { pmc_mesh_gradients(m.0) }.is_null());
+    assert_eq!(unsafe { pmc_options_set_gradients(o, 1) }, PmcStatus::Ok);
+    for bad in [2, -1, c_int::MAX] {
+        assert_eq!(
+            unsafe { pmc_options_set_gradients(o, bad) },
+            PmcStatus::InvalidArgument
+        );
+        assert_eq!(
+            last_error(),
+            format!("gradients must be 0 (off) or 1 (on), not {bad}")
+        );
+    }
+    // Still on: the rejected values left the options unchanged.
+    let m = c_extract(&cv, 2.0, o).unwrap();
+    assert!(!unsafe { pmc_mesh_gradients(m.0) }.is_null());
+    assert!(unsafe { pmc_mesh_normals(m.0) }.is_null());
+    assert_eq!(unsafe { pmc_options_set_gradients(o, 0) }, PmcStatus::Ok);
+    let m = c_extract(&cv, 2.0, o).unwrap();
+    assert!(unsafe { pmc_mesh_gradients(m.0) }.is_null());
+    unsafe { pmc_options_free(o) };
 }
 
 #[test]

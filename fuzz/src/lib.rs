@@ -1130,6 +1130,19 @@ pub fn fuzz_c_api(data: &[u8]) {
                 core_opts.topology = opts.topology;
                 core_opts.normals = opts.normals;
             }
+            // A hostile flag (neither 0 nor 1) is rejected, leaving it off.
+            let gv = if hostile & 0x40 != 0 {
+                2 + opts.gradients as std::ffi::c_int
+            } else {
+                opts.gradients as std::ffi::c_int
+            };
+            assert_eq!(
+                ffi::pmc_options_set_gradients(o, gv) as u32,
+                if hostile & 0x40 != 0 { 2 } else { 0 }
+            );
+            if hostile & 0x40 == 0 {
+                core_opts.gradients = opts.gradients;
+            }
             assert_eq!(
                 ffi::pmc_options_set_max_triangles(o, opts.max_triangles) as u32,
                 0
@@ -1318,7 +1331,15 @@ unsafe fn mesh_from_handle(mesh: *const ffi::pmc_mesh) -> Mesh {
                 .map(|c| [c[0], c[1], c[2]])
                 .collect()
         };
-        let gradients = Vec::new();
+        let gp = ffi::pmc_mesh_gradients(mesh);
+        let gradients = if gp.is_null() {
+            Vec::new()
+        } else {
+            std::slice::from_raw_parts(gp, 3 * np)
+                .chunks(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
+        };
         let mut s = std::mem::MaybeUninit::<ffi::pmc_stats>::zeroed();
         assert_eq!(ffi::pmc_mesh_stats(mesh, s.as_mut_ptr()) as u32, 0);
         let s = s.assume_init();

@@ -129,7 +129,7 @@ pub struct pmc_stats {
     pub time_refine: f64,
     /// Wall time spent welding and assembling the output, seconds.
     pub time_assemble: f64,
-    /// Wall time spent on normals, seconds.
+    /// Wall time spent on normals and gradients, seconds.
     pub time_normals: f64,
     /// Total wall time of the extraction, seconds.
     pub time_total: f64,
@@ -335,6 +335,28 @@ pub unsafe extern "C" fn pmc_mesh_normals(mesh: *const pmc_mesh) -> *const f32 {
     value_boundary(std::ptr::null(), || {
         // SAFETY: forwarded contract.
         unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.normals))
+    })
+}
+
+/// The scalar gradient at each point, in sample value per world length
+/// unit (the index-space gradient divided by the volume's spacing per
+/// axis), pointing towards higher sample values and not normalised, as
+/// `vtkFlyingEdges3D`'s "Gradients": `3 * pmc_mesh_point_count` floats.
+/// Computed as the normals of the mode set with `pmc_options_set_normals`
+/// are (the exact trilinear gradient with `PMC_NORMALS_NONE`): each normal
+/// is its point's negated, normalised gradient, and (0, 0, 0) where the
+/// normal is; a component beyond float's range is infinite. `NULL` when
+/// gradients were not requested (`pmc_options_set_gradients`) and for a
+/// `NULL` or empty mesh.
+///
+/// # Safety
+///
+/// `mesh` must be `NULL` or a live handle from `pmc_extract`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_mesh_gradients(mesh: *const pmc_mesh) -> *const f32 {
+    value_boundary(std::ptr::null(), || {
+        // SAFETY: forwarded contract.
+        unsafe { self::mesh(mesh) }.map_or(std::ptr::null(), |m| ptr_or_null(&m.gradients))
     })
 }
 

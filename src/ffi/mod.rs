@@ -50,17 +50,17 @@ pub use measure::{pmc_distance, pmc_measure_distance};
 pub use memory::pmc_release_memory;
 pub use mesh::{
     pmc_mesh, pmc_mesh_cells_on_subcells, pmc_mesh_cells_refined_on_faces_only, pmc_mesh_free,
-    pmc_mesh_index_points, pmc_mesh_normals, pmc_mesh_point_count, pmc_mesh_points,
-    pmc_mesh_recut_polygons, pmc_mesh_stats, pmc_mesh_take_triangles, pmc_mesh_triangle_count,
-    pmc_mesh_triangle_levels, pmc_mesh_triangles, pmc_stats,
+    pmc_mesh_gradients, pmc_mesh_index_points, pmc_mesh_normals, pmc_mesh_point_count,
+    pmc_mesh_points, pmc_mesh_recut_polygons, pmc_mesh_stats, pmc_mesh_take_triangles,
+    pmc_mesh_triangle_count, pmc_mesh_triangle_levels, pmc_mesh_triangles, pmc_stats,
 };
 pub use options::{
     pmc_options, pmc_options_free, pmc_options_new, pmc_options_set_epsilon,
-    pmc_options_set_executor, pmc_options_set_index_offset, pmc_options_set_max_level,
-    pmc_options_set_max_triangles, pmc_options_set_normals, pmc_options_set_progress,
-    pmc_options_set_reconstruction, pmc_options_set_rule, pmc_options_set_threads,
-    pmc_options_set_topology, pmc_progress_fn, PMC_MAX_INDEX_OFFSET, PMC_MAX_LEVEL_LIMIT,
-    PMC_MAX_THREADS,
+    pmc_options_set_executor, pmc_options_set_gradients, pmc_options_set_index_offset,
+    pmc_options_set_max_level, pmc_options_set_max_triangles, pmc_options_set_normals,
+    pmc_options_set_progress, pmc_options_set_reconstruction, pmc_options_set_rule,
+    pmc_options_set_threads, pmc_options_set_topology, pmc_progress_fn, PMC_MAX_INDEX_OFFSET,
+    PMC_MAX_LEVEL_LIMIT, PMC_MAX_THREADS,
 };
 pub use status::{pmc_status, pmc_status_string, PmcStatus};
 pub use version::pmc_version_string;

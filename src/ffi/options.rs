@@ -34,7 +34,8 @@ const _: () = assert!(PMC_MAX_INDEX_OFFSET == crate::MAX_INDEX_OFFSET);
 /// any other value to stop: the callback is not called again, and
 /// `pmc_extract` returns `PMC_STATUS_ABORTED` within a few milliseconds
 /// and produces no mesh. Welding the workers' outputs into one mesh
-/// (before the call with 0.97) and the normals (after it) make no calls:
+/// (before the call with 0.97) and the normals and gradients (after it)
+/// make no calls:
 /// on meshes of tens of millions of triangles they take seconds, during
 /// which no stop can be asked.
 /// The callback must not call `pmc_options_*` on the options being used,
@@ -110,7 +111,7 @@ unsafe fn with_options(
 
 /// Creates options with the defaults: epsilon 0.01, max level 5, rule
 /// `PMC_RULE_A1`, topology `PMC_TOPOLOGY_TRILINEAR`, normals
-/// `PMC_NORMALS_NONE`, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
+/// `PMC_NORMALS_NONE`, no gradients, reconstruction `PMC_RECONSTRUCTION_TRILINEAR`, no
 /// triangle cap, all cores, no progress callback, no executor (threads of
 /// its own), index offset (0, 0, 0).
 ///
@@ -299,6 +300,40 @@ pub unsafe extern "C" fn pmc_options_set_normals(
         let n = PmcNormals::from_raw(normals)
             .ok_or_else(|| Failure::invalid(format!("unknown normals mode {normals}")))?;
         o.core.normals = n.to_core();
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { with_options(options, set) }
+}
+
+/// Sets whether to compute the scalar gradient at each output point
+/// (`pmc_mesh_gradients`): `1` on, `0` off (the default). The gradients
+/// are computed as the normals of the mode set with
+/// `pmc_options_set_normals` are (by the exact trilinear gradient with
+/// `PMC_NORMALS_NONE`), so that with both on each normal is its point's
+/// negated, normalised gradient.
+///
+/// Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) for any other
+/// value; `PMC_STATUS_NULL_ARGUMENT` for `NULL` options.
+///
+/// # Safety
+///
+/// As for `pmc_options_set_epsilon`.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_options_set_gradients(
+    options: *mut pmc_options,
+    gradients: c_int,
+) -> PmcStatus {
+    let set = |o: &mut OptionsData| {
+        o.core.gradients = match gradients {
+            0 => false,
+            1 => true,
+            _ => {
+                return Err(Failure::invalid(format!(
+                    "gradients must be 0 (off) or 1 (on), not {gradients}"
+                )))
+            }
+        };
         Ok(())
     };
     // SAFETY: forwarded contract.

@@ -110,6 +110,12 @@ static void test_options_setters(void) {
     }
     CHECK_STATUS(pmc_options_set_topology(o, 2), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_options_set_normals(o, 3), PMC_STATUS_INVALID_ARGUMENT);
+    /* The gradients flag is 0 or 1, nothing else. */
+    CHECK_STATUS(pmc_options_set_gradients(o, 0), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_gradients(o, 1), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_options_set_gradients(o, 2), PMC_STATUS_INVALID_ARGUMENT);
+    CHECK(strstr(last_error(), "gradients must be 0 (off) or 1 (on), not 2") != NULL);
+    CHECK_STATUS(pmc_options_set_gradients(o, -1), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_options_set_index_offset(o, NULL), PMC_STATUS_NULL_ARGUMENT);
     CHECK(strstr(last_error(), "offset") != NULL);
 
@@ -120,6 +126,7 @@ static void test_options_setters(void) {
     CHECK_STATUS(pmc_options_set_rule(NULL, PMC_RULE_A), PMC_STATUS_NULL_ARGUMENT);
     CHECK_STATUS(pmc_options_set_topology(NULL, PMC_TOPOLOGY_CLASSIC), PMC_STATUS_NULL_ARGUMENT);
     CHECK_STATUS(pmc_options_set_normals(NULL, PMC_NORMALS_NONE), PMC_STATUS_NULL_ARGUMENT);
+    CHECK_STATUS(pmc_options_set_gradients(NULL, 1), PMC_STATUS_NULL_ARGUMENT);
     CHECK_STATUS(pmc_options_set_max_triangles(NULL, 5), PMC_STATUS_NULL_ARGUMENT);
     CHECK_STATUS(pmc_options_set_threads(NULL, 1), PMC_STATUS_NULL_ARGUMENT);
     CHECK_STATUS(pmc_options_set_progress(NULL, NULL, NULL), PMC_STATUS_NULL_ARGUMENT);
@@ -140,10 +147,12 @@ static void test_rejected_values_keep_options(void) {
     CHECK_STATUS(pmc_options_set_rule(o, 7), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_options_set_topology(o, 7), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_options_set_normals(o, 7), PMC_STATUS_INVALID_ARGUMENT);
+    CHECK_STATUS(pmc_options_set_gradients(o, 7), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_options_set_threads(o, 0xFFFFFFFFu), PMC_STATUS_INVALID_ARGUMENT);
     CHECK_STATUS(pmc_extract(&v, 3.3, o, &b), PMC_STATUS_OK);
     CHECK(meshes_equal(a, b));
     CHECK(pmc_mesh_normals(b) == NULL);
+    CHECK(pmc_mesh_gradients(b) == NULL);
     pmc_mesh_free(a);
     pmc_mesh_free(b);
     pmc_options_free(o);
@@ -310,6 +319,7 @@ static void test_null_accessors(void) {
     CHECK(pmc_mesh_index_points(NULL) == NULL);
     CHECK(pmc_mesh_triangles(NULL) == NULL);
     CHECK(pmc_mesh_normals(NULL) == NULL);
+    CHECK(pmc_mesh_gradients(NULL) == NULL);
     CHECK(pmc_mesh_triangle_levels(NULL) == NULL);
     CHECK_STATUS(pmc_mesh_stats(NULL, &s), PMC_STATUS_NULL_ARGUMENT);
     CHECK(strstr(last_error(), "mesh is NULL") != NULL);

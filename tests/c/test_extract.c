@@ -336,8 +336,36 @@ static void test_options_effects(void) {
     CHECK_STATUS(pmc_options_set_normals(o, PMC_NORMALS_CENTRAL_DIFFERENCE), PMC_STATUS_OK);
     m = extract(&v, 5.3, o);
     CHECK(pmc_mesh_normals(m) != NULL);
+    CHECK(pmc_mesh_gradients(m) == NULL); /* not requested */
     CHECK(check_mesh(m, &v, 5));
     pmc_mesh_free(m);
+
+    /* Gradients: outwards (towards higher values), each normal the
+     * negated, normalised gradient; the geometry unchanged. */
+    CHECK_STATUS(pmc_options_set_gradients(o, 1), PMC_STATUS_OK);
+    m = extract(&v, 5.3, o);
+    CHECK(pmc_mesh_gradients(m) != NULL && pmc_mesh_normals(m) != NULL);
+    CHECK(meshes_equal(m, def));
+    {
+        const double *p = pmc_mesh_points(m);
+        const float *g = pmc_mesh_gradients(m);
+        const float *nr = pmc_mesh_normals(m);
+        uint64_t i, np = pmc_mesh_point_count(m), outward = 0, along = 0;
+        for (i = 0; i < np; i++) {
+            double len = sqrt((double)g[3 * i] * g[3 * i] + (double)g[3 * i + 1] * g[3 * i + 1] +
+                              (double)g[3 * i + 2] * g[3 * i + 2]);
+            double d = (p[3 * i] - 7.5) * g[3 * i] + (p[3 * i + 1] - 7.5) * g[3 * i + 1] +
+                       (p[3 * i + 2] - 7.5) * g[3 * i + 2];
+            outward += d > 0.0;
+            along += len > 0.0 && fabs(nr[3 * i] + g[3 * i] / len) < 1e-5 &&
+                     fabs(nr[3 * i + 1] + g[3 * i + 1] / len) < 1e-5 &&
+                     fabs(nr[3 * i + 2] + g[3 * i + 2] / len) < 1e-5;
+        }
+        CHECK(outward == np);
+        CHECK(along == np);
+    }
+    pmc_mesh_free(m);
+    CHECK_STATUS(pmc_options_set_gradients(o, 0), PMC_STATUS_OK);
     CHECK_STATUS(pmc_options_set_normals(o, PMC_NORMALS_NONE), PMC_STATUS_OK);
 
     /* Triangle cap below the default output: refinement stops early. */
