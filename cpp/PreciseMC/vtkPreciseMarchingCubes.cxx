@@ -86,12 +86,14 @@ constexpr int CubicGhostSamples = 2;
 // level 3 up): such a cell joins its fine outline to the old one by a
 // strip in each face, and where the cell across the face is meshed again
 // too the two strips cancel, in the serial run, which a piece sees only
-// with the cells across its faces; and one for normals, whose gradient at a
-// point on the piece's face takes the cell (or the samples) beyond it, as
-// the serial run does. Otherwise none: image pieces share their boundary
-// samples, all the trilinear filter's surface needs, except where samples
-// equal the isovalue (see ContourGhostSamples()).
-int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel, bool normals)
+// with the cells across its faces; and one for normals or gradients
+// (`derivatives`), whose gradient at a point on the piece's face takes the
+// cell (or the samples) beyond it, as the serial run does. Otherwise none:
+// image pieces share their boundary samples, all the trilinear filter's
+// surface needs, except where samples equal the isovalue (see
+// ContourGhostSamples()).
+int GhostSamples(
+  int reconstruction, int topology, double epsilon, int maxLevel, bool derivatives)
 {
   if (reconstruction != vtkPreciseMarchingCubes::RECONSTRUCTION_TRILINEAR)
   {
@@ -99,7 +101,7 @@ int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel,
   }
   const bool subcells = topology == vtkPreciseMarchingCubes::TOPOLOGY_TRILINEAR &&
     epsilon > 0.0 && maxLevel >= 3;
-  return subcells || normals ? 1 : 0;
+  return subcells || derivatives ? 1 : 0;
 }
 
 // Ghost samples a piece is asked for and contoured with: those the run
@@ -110,9 +112,9 @@ int GhostSamples(int reconstruction, int topology, double epsilon, int maxLevel,
 // cut too (without it, the pieces' union had a double-sided sheet there
 // that the serial surface has not).
 int ContourGhostSamples(
-  int reconstruction, int topology, double epsilon, int maxLevel, bool normals)
+  int reconstruction, int topology, double epsilon, int maxLevel, bool derivatives)
 {
-  return std::max(1, GhostSamples(reconstruction, topology, epsilon, maxLevel, normals));
+  return std::max(1, GhostSamples(reconstruction, topology, epsilon, maxLevel, derivatives));
 }
 
 // Whether `dataExtent` is piece `piece` of `pieces` of `splitExtent`, as
@@ -440,11 +442,13 @@ void SelectCells(const pmc_mesh* mesh, const int extent[6], const int sampleExte
 
 //------------------------------------------------------------------------------
 // Construct with a single contour value of 0.0, normals and scalars on,
+// gradients off,
 // refinement with epsilon 0.01 up to level 5 (rule A1), trilinear topology.
 vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
 {
   this->ContourValues = vtkContourValues::New();
   this->ComputeNormals = 1;
+  this->ComputeGradients = 0;
   this->ComputeScalars = 1;
   this->InterpolateAttributes = 0;
   this->ComputeLevels = 0;
@@ -744,12 +748,12 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   // it reads all the input holds (the whole volume, as requested).
   const int ghostSamples =
     ContourGhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon,
-      this->MaxLevel, this->ComputeNormals != 0);
+      this->MaxLevel, this->ComputeNormals != 0 || this->ComputeGradients != 0);
   // The samples without which the surface next to a cut differs from the
   // serial one on any data (not only where samples equal the isovalue).
   const int neededSamples =
     GhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon, this->MaxLevel,
-      this->ComputeNormals != 0);
+      this->ComputeNormals != 0 || this->ComputeGradients != 0);
   int sampleExtent[6];
   std::copy(extent, extent + 6, sampleExtent);
   if (this->HasContourExtent)
@@ -885,7 +889,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
                       << ", " << piece[4] << ".." << piece[5]
                       << "), without the samples around it that "
                       << (global ? "the B-Spline Interpolating prefilter"
-                                 : "normals, a cubic filter or refinement on sub-cells")
+                                 : "normals or gradients, a cubic filter, or refinement on "
+                                   "sub-cells")
                       << " read: its own cells are contoured, and next to its faces the "
                          "surface may differ from a serial run's");
     }
@@ -946,8 +951,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   // Geometry: the library works on an axis-aligned grid. With the identity
   // direction and positive spacing it produces world coordinates directly;
   // otherwise points are mapped from index space with the image's
-  // IndexToPhysical matrix afterwards (and normals with its inverse
-  // transpose).
+  // IndexToPhysical matrix afterwards (and normals and gradients with its
+  // inverse transpose).
   const double* origin = input->GetOrigin();
   const double* spacing = input->GetSpacing();
   vtkMatrix3x3* direction = input->GetDirectionMatrix();
@@ -989,8 +994,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       for (int c = 0; c < 3; ++c)
       {
         indexToWorld[r][c] = direction->GetElement(r, c) * spacing[c];
-        // The library's normals are in the axis-aligned frame with |spacing|:
-        // map them with the inverse transpose of D * sign(S).
+        // The library's normals and gradients are in the axis-aligned frame
+        // with |spacing|: map them with the inverse transpose of D * sign(S)
+        // (a gradient is a covector: for x = origin + D * S * ijk, the
+        // world gradient is (D S)^-T times the index one, which is
+        // (D sign(S))^-T times the library's, the index one over |S|).
         scaled[r][c] = direction->GetElement(r, c) * (spacing[c] < 0.0 ? -1.0 : 1.0);
       }
     }
@@ -1119,6 +1127,12 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     return 1;
   }
   bool computeNormals = this->ComputeNormals != 0;
+  bool computeGradients = this->ComputeGradients != 0;
+  // The library makes gradients as it makes normals, the exact ones when
+  // normals are off: central-difference gradients without normals need
+  // them asked for too (and dropped).
+  const bool libraryNormals = computeNormals ||
+    (computeGradients && this->NormalMode == NORMALS_CENTRAL_DIFFERENCE);
   const int64_t indexOffset[3] = { sampleExtent[0], sampleExtent[2], sampleExtent[4] };
   ProgressState progress = { this, 0.0, 1.0 };
   pmc_status status = PMC_STATUS_OK;
@@ -1148,10 +1162,15 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     failed = "Topology";
   }
   else if ((status = pmc_options_set_normals(options.get(),
-              computeNormals ? static_cast<pmc_normals>(this->NormalMode)
+              libraryNormals ? static_cast<pmc_normals>(this->NormalMode)
                              : static_cast<pmc_normals>(PMC_NORMALS_NONE))) != PMC_STATUS_OK)
   {
     failed = "NormalMode";
+  }
+  else if ((status = pmc_options_set_gradients(options.get(), computeGradients ? 1 : 0)) !=
+    PMC_STATUS_OK)
+  {
+    failed = "ComputeGradients";
   }
   else if ((status = pmc_options_set_max_triangles(options.get(), this->MaxTriangles)) !=
     PMC_STATUS_OK)
@@ -1322,6 +1341,14 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     newNormals->SetNumberOfComponents(3);
     newNormals->SetNumberOfTuples(numPts);
   }
+  vtkSmartPointer<vtkFloatArray> newGradients;
+  if (computeGradients)
+  {
+    newGradients = vtkSmartPointer<vtkFloatArray>::New();
+    newGradients->SetName("Gradients");
+    newGradients->SetNumberOfComponents(3);
+    newGradients->SetNumberOfTuples(numPts);
+  }
   vtkSmartPointer<vtkDataArray> newScalars;
   if (this->ComputeScalars)
   {
@@ -1400,6 +1427,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   {
     AdviseHugePages(newNormals->GetPointer(0), sizeof(float) * 3 * static_cast<size_t>(numPts));
   }
+  if (newGradients)
+  {
+    AdviseHugePages(
+      newGradients->GetPointer(0), sizeof(float) * 3 * static_cast<size_t>(numPts));
+  }
   for (vtkIdType c = 0; c < numContours; ++c)
   {
     const pmc_mesh* mesh = meshes[c].get();
@@ -1410,10 +1442,11 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     const double* ijk = pmc_mesh_index_points(mesh);
     const int64_t* tris = pmc_mesh_triangles(mesh);
     const float* normals = pmc_mesh_normals(mesh);
+    const float* gradients = pmc_mesh_gradients(mesh);
     const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh);
     if ((np > 0 && !ijk) || (nt > 0 && (!tris || !triLevels)) ||
       (adopted && static_cast<vtkIdType>(selections[0].NumberOfTriangles) > 0 && !triLevels) ||
-      (computeNormals && np > 0 && !normals))
+      (computeNormals && np > 0 && !normals) || (computeGradients && np > 0 && !gradients))
     {
       vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
       output->Initialize();
@@ -1427,7 +1460,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     // common case, in a loop without per-point branches (the general one
     // below cost about as much as copying every array twice).
     const bool plainPoints =
-      !pointMap && axisAligned && floatPts && !computeNormals && indexPoints.empty();
+      !pointMap && axisAligned && floatPts && !computeNormals && !computeGradients &&
+      indexPoints.empty();
     forRange(np, [&](vtkIdType first, vtkIdType last) {
       if (plainPoints)
       {
@@ -1500,6 +1534,35 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
             n[0] = static_cast<float>(v[0]);
             n[1] = static_cast<float>(v[1]);
             n[2] = static_cast<float>(v[2]);
+          }
+        }
+        if (computeGradients)
+        {
+          // As the normals, without normalising: a gradient keeps its size.
+          float* g = newGradients->GetPointer(3 * o);
+          const float* m = gradients + 3 * i;
+          if (axisAligned)
+          {
+            g[0] = m[0];
+            g[1] = m[1];
+            g[2] = m[2];
+          }
+          else
+          {
+            // Zero entries are left out: an infinite component (a spacing
+            // too small for float's range) does not make 0 x inf = NaN.
+            for (int r = 0; r < 3; ++r)
+            {
+              double v = 0.0;
+              for (int c = 0; c < 3; ++c)
+              {
+                if (normalMatrix[r][c] != 0.0)
+                {
+                  v += normalMatrix[r][c] * m[c];
+                }
+              }
+              g[r] = static_cast<float>(v);
+            }
           }
         }
         if (!indexPoints.empty())
@@ -1653,6 +1716,14 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     int idx = outPD->AddArray(newNormals);
     outPD->SetActiveAttribute(idx, vtkDataSetAttributes::NORMALS);
   }
+  if (newGradients)
+  {
+    // The active vectors, as vtkFlyingEdges3D makes them (an interpolated
+    // array of the input that was its active vectors stays, as a plain
+    // array).
+    int idx = outPD->AddArray(newGradients);
+    outPD->SetActiveAttribute(idx, vtkDataSetAttributes::VECTORS);
+  }
   if (levels)
   {
     output->GetCellData()->AddArray(levels);
@@ -1694,7 +1765,7 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   int ghostLevels = 0;
   const int ghostSamples =
     ContourGhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon,
-      this->MaxLevel, this->ComputeNormals != 0);
+      this->MaxLevel, this->ComputeNormals != 0 || this->ComputeGradients != 0);
   if (outInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
@@ -1801,6 +1872,7 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   this->ContourValues->PrintSelf(os, indent.GetNextIndent());
 
   os << indent << "Compute Normals: " << (this->ComputeNormals ? "On\n" : "Off\n");
+  os << indent << "Compute Gradients: " << (this->ComputeGradients ? "On\n" : "Off\n");
   os << indent << "Compute Scalars: " << (this->ComputeScalars ? "On\n" : "Off\n");
   os << indent << "Interpolate Attributes: " << (this->InterpolateAttributes ? "On\n" : "Off\n");
   os << indent << "Compute Levels: " << (this->ComputeLevels ? "On\n" : "Off\n");

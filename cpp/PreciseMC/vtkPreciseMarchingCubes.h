@@ -43,7 +43,7 @@
  *
  * The interface follows vtkFlyingEdges3D: several contour values may be
  * given and their surfaces are appended into one output; point normals,
- * point scalars (the contour value) and the other point data (interpolated
+ * point gradients, point scalars (the contour value) and the other point data (interpolated
  * trilinearly at every output point, refined points included) are
  * optional. A per-triangle "RefinementLevel" cell array records how often
  * each triangle was subdivided (0 = Marching Cubes triangle).
@@ -67,8 +67,8 @@
  * piece's own cells, for three reasons: where a plane of samples equals
  * the isovalue, the cells on its two sides emit the same flat triangles
  * with opposite orientations, which cancel, so a piece cut along such a
- * plane must see the cells across it; normals at a point on a piece's
- * face read the samples beyond it; and refining with the trilinear
+ * plane must see the cells across it; normals and gradients at a point
+ * on a piece's face read the samples beyond it; and refining with the trilinear
  * topology from MaxLevel 3 up, a cell where refinement stalls is meshed
  * again on sub-cells, whose strips in a face cancel against those of a
  * neighbour meshed again too. The cubic filters read one more layer of
@@ -205,13 +205,28 @@ public:
   /**
    * Set/Get the computation of point normals (unit vectors pointing towards
    * lower scalar values, like vtkMarchingCubes). How they are computed is
-   * set by NormalMode. Default is on. (There is no ComputeGradients, as
-   * vtkMarchingCubes and vtkFlyingEdges3D have: no un-normalised gradient
-   * array is produced.)
+   * set by NormalMode. Default is on.
    */
   vtkSetMacro(ComputeNormals, vtkTypeBool);
   vtkGetMacro(ComputeNormals, vtkTypeBool);
   vtkBooleanMacro(ComputeNormals, vtkTypeBool);
+  ///@}
+
+  ///@{
+  /**
+   * Set/Get the computation of point gradients, as in vtkFlyingEdges3D: a
+   * 3-component float point array "Gradients" holding the scalar gradient
+   * at each output point, un-normalised, pointing towards higher scalar
+   * values, in scalar units per world length (with a direction matrix D,
+   * in world axes: D^-T times the gradient along the image axes). They are
+   * computed as the normals are (NormalMode, also when ComputeNormals is
+   * off), so that where both are on each normal is the negated, normalised
+   * gradient. A component beyond float's range is infinite. The array is
+   * made the active vectors, as vtkFlyingEdges3D does. Default is off.
+   */
+  vtkSetMacro(ComputeGradients, vtkTypeBool);
+  vtkGetMacro(ComputeGradients, vtkTypeBool);
+  vtkBooleanMacro(ComputeGradients, vtkTypeBool);
   ///@}
 
   ///@{
@@ -440,7 +455,8 @@ public:
 
   ///@{
   /**
-   * Set/Get how normals are computed when ComputeNormals is on:
+   * Set/Get how normals (ComputeNormals) and gradients (ComputeGradients)
+   * are computed:
    * NORMALS_GRADIENT (the exact gradient of the trilinear interpolant at
    * the point; the default) or NORMALS_CENTRAL_DIFFERENCE (central
    * differences at the grid points interpolated to the point, like
@@ -578,6 +594,7 @@ protected:
 
   vtkContourValues* ContourValues;
   vtkTypeBool ComputeNormals;
+  vtkTypeBool ComputeGradients;
   vtkTypeBool ComputeScalars;
   vtkTypeBool InterpolateAttributes;
   vtkTypeBool ComputeLevels;
