@@ -32,7 +32,7 @@ def main():
     contour = pvs.PreciseContour(Input=wavelet, ContourBy=["POINTS", "RTData"])
     defaults = {
         "Epsilon": 0.01, "MaxLevel": 5, "Rule": "A1", "Topology": "Trilinear",
-        "NormalMode": "Gradient", "ComputeNormals": 1, "ComputeScalars": 1,
+        "NormalMode": "Gradient", "ComputeNormals": 1, "ComputeGradients": 0, "ComputeScalars": 1,
         "ComputeLevels": 0, "InterpolateAttributes": 0, "MaxTriangles": 0,
         "NumberOfThreads": 0, "ArrayComponent": 0, "OutputPointsPrecision": "Default",
         "ReconstructionFilter": "Trilinear", "UseSMPTools": 0,
@@ -93,6 +93,14 @@ def main():
           and "RefinementLevel" in arrays[1], f"{arrays}")
     levels = contour.CellData["RefinementLevel"].GetRange()
     check("refinement happened", levels[1] >= 1, f"levels {levels}")
+    check("no gradients by default", "Gradients" not in arrays[0], f"{arrays}")
+    contour.ComputeGradients = 1
+    contour.UpdatePipeline()
+    gradients = contour.PointData.keys()
+    check("Compute Gradients adds the Gradients array",
+          "Gradients" in gradients
+          and contour.PointData["Gradients"].GetNumberOfComponents() == 3, f"{gradients}")
+    contour.ComputeGradients = 0
 
     contour.Epsilon = 0.0
     contour.UpdatePipeline()
