@@ -190,6 +190,11 @@ Options ParseArguments(int argc, char* argv[])
       flag();
       o.SMP = true;
     }
+    else if (name == "--gradients")
+    {
+      flag();
+      o.Gradients = true;
+    }
     else if (name == "-q" || name == "--quiet")
     {
       flag();
@@ -374,6 +379,10 @@ options:
       --normals N       point normals: none, gradient (of the trilinear
                         interpolant) or central (differences); default
                         gradient
+      --gradients       also a point array "Gradients" (.vtp output): the
+                        scalar gradient, towards higher values, in value
+                        per world length, computed as the normals are
+                        (gradient with --normals none)
       --max-triangles N cap on the output triangles of each isovalue:
                         refinement stops at the deepest level that fits
                         (the Marching Cubes triangles are always kept);

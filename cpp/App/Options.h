@@ -22,6 +22,7 @@ struct Options
   int Topology = 0; // TOPOLOGY_TRILINEAR
   int Filter = 0;   // RECONSTRUCTION_TRILINEAR (--filter)
   int Normals = 1;  // 0 = none, else vtkPreciseMarchingCubes::NormalModes
+  bool Gradients = false; // --gradients: a "Gradients" point array
   unsigned long long MaxTriangles = 0;
   int Threads = 0;
   bool SMP = false; // --smp: the library's work as vtkSMPTools tasks

@@ -295,6 +295,7 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   {
     f->SetNormalMode(o.Normals);
   }
+  f->SetComputeGradients(o.Gradients);
   f->SetMaxTriangles(static_cast<vtkTypeUInt64>(o.MaxTriangles));
   f->SetNumberOfThreads(o.Threads);
   f->SetUseSMPTools(o.SMP);
@@ -327,6 +328,7 @@ vtkSmartPointer<vtkPolyData> ExtractOne(const DataSet& d, double value, const pm
   filter->SetValue(0, value);
   Configure(filter, o, false);
   filter->SetComputeNormals(false);
+  filter->SetComputeGradients(false);
   pmcapp::TakeVTKErrors();
   filter->Update();
   std::vector<std::string> errors = pmcapp::TakeVTKErrors();

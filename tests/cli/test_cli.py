@@ -234,7 +234,7 @@ def help_and_version():
     r = ok("--help")
     expect(r.stdout.startswith("usage: precisemc"), "help text")
     for option in ("--value", "--array", "--epsilon", "--max-level", "--rule", "--topology", "--filter",
-                   "catmull-rom", "bspline-interpolating", "--normals",
+                   "catmull-rom", "bspline-interpolating", "--normals", "--gradients",
                    "--max-triangles", "--threads", "--smp", "--output", "--compare", "--distance",
                    "--quiet", "--sample", "--version"):
         expect(option in r.stdout, f"{option} not in --help")
@@ -493,6 +493,13 @@ def explicit_values_and_filter_options():
     out = os.path.join(d, "nonormals.vtp")
     ok("--sample", "tube", "--normals", "none", "-o", out)
     expect(read_surface(out).GetPointData().GetNormals() is None, "normals written with none")
+    expect(read_surface(out).GetPointData().GetArray("Gradients") is None,
+           "gradients written without --gradients")
+    ok("--sample", "tube", "--normals", "central", "--gradients", "-o", out)
+    pd = read_surface(out).GetPointData()
+    g, n = (vtk_to_numpy(pd.GetArray(a)).astype(float) for a in ("Gradients", "Normals"))
+    expect(len(g) > 0 and np.abs(n + g / np.linalg.norm(g, axis=1)[:, None]).max() < 1e-5,
+           "--gradients: the normals are not the negated, normalised gradients")
     for rule in ("A", "a1", "A2", "b"):
         ok("--sample", "tube", "--rule", rule, "-q")
     r = ok("--sample", "atoms", "--max-triangles", "4000")
