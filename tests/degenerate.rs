@@ -1,6 +1,6 @@
 //! Degenerate data, for both topologies, with refinement off and on
-//! (every rule, several epsilons and maximum levels, with and without a
-//! triangle cap):
+//! (every rule, several epsilons and maximum levels; no triangle cap, which
+//! `tests/cap.rs` and `tests/memory.rs` cover):
 //!
 //! * constant volumes (no triangle at all);
 //! * integer fields with the isovalue on sample values (many ties);
@@ -215,13 +215,6 @@ fn problems(mesh: &Mesh, dims: [usize; 3], case: Case, opts: &Options) -> Vec<St
             p.push(format!("point outside the box {q:?}"));
             return p;
         }
-    }
-    if opts.max_triangles > 0 && mesh.triangles.len() as u64 > opts.max_triangles {
-        p.push(format!(
-            "{} triangles above the cap {}",
-            mesh.triangles.len(),
-            opts.max_triangles
-        ));
     }
     if mesh.levels.iter().any(|&l| l as u32 > opts.max_level) {
         p.push("level above max_level".into());
