@@ -3,7 +3,17 @@
 //! level deeper would not fit. (Count passes stop as soon as their leaves
 //! exceed the cap; this checks that the stop never changes the choice.)
 
-use precisemc::{extract, samples, Options, Rule};
+use precisemc::{extract, samples, Mesh, Options, Rule, Volume};
+
+/// The uncapped mesh of `base` at max level `level` on `threads` threads.
+fn uncapped(v: &Volume<'_>, iso: f64, base: &Options, level: u32, threads: usize) -> Mesh {
+    let o = Options {
+        max_level: level,
+        threads,
+        ..base.clone()
+    };
+    extract(v, iso, &o).unwrap()
+}
 
 #[test]
 fn the_cap_keeps_the_deepest_level_that_fits() {
@@ -17,14 +27,7 @@ fn the_cap_keeps_the_deepest_level_that_fits() {
             rule,
             ..Options::default()
         };
-        let at_level = |level: u32, threads: usize| {
-            let o = Options {
-                max_level: level,
-                threads,
-                ..base.clone()
-            };
-            extract(&v, s.isovalue, &o).unwrap()
-        };
+        let at_level = |level, threads| uncapped(&v, s.isovalue, &base, level, threads);
         let full = at_level(7, 1).triangles.len() as u64;
         let mc = at_level(0, 1).triangles.len() as u64;
         assert!(full > 4 * mc, "{rule:?}: too little refinement to test");
@@ -119,7 +122,7 @@ fn a_cap_the_output_fits_is_not_reached_on_any_thread_count() {
         3, 0, 0, -6, 0, 4, 6, i32::MIN, i32::MAX, 0, 5, 5, -3, 0, 0, 0, 7, 6, 7, i32::MIN, 6, 0,
         i32::MAX,
     ];
-    let v = precisemc::Volume::new(&values, [5, 3, 6]);
+    let v = Volume::new(&values, [5, 3, 6]);
     let base = Options {
         epsilon: 0.002,
         max_level: 6,
@@ -207,7 +210,7 @@ fn the_output_pass_steps_down_where_the_count_falls_short() {
         },
     ];
     for c in &cases {
-        let v = precisemc::Volume::new(&c.values, c.dims);
+        let v = Volume::new(&c.values, c.dims);
         let base = Options {
             epsilon: c.epsilon,
             max_level: c.max_level,
@@ -216,14 +219,7 @@ fn the_output_pass_steps_down_where_the_count_falls_short() {
             threads: 1,
             ..Options::default()
         };
-        let at_level = |level: u32, threads: usize| {
-            let o = Options {
-                max_level: level,
-                threads,
-                ..base.clone()
-            };
-            extract(&v, 0.0, &o).unwrap()
-        };
+        let at_level = |level, threads| uncapped(&v, 0.0, &base, level, threads);
         let what = format!("{:?} {:?} cap {}", c.dims, c.rule, c.cap);
         let full = at_level(c.max_level, 1).triangles.len() as u64;
         assert!(full > c.cap, "{what}: the requested level fits ({full})");
