@@ -29,12 +29,17 @@ def ellipsoid_image(direction=None):
     values = x * x + 0.8 * y * y + 1.3 * z * z + 0.3 * x * y + 0.5 * np.sin(x + 0.5 * z)
     image = image_from_array(values, SPACING, ORIGIN)
     if direction is not None:
-        m = vtkMatrix3x3()
-        for r in range(3):
-            for c in range(3):
-                m.SetElement(r, c, direction[r, c])
-        image.SetDirectionMatrix(m)
+        set_direction(image, direction)
     return image
+
+
+def set_direction(image, direction):
+    """Gives `image` the 3x3 direction matrix `direction` (a numpy array)."""
+    m = vtkMatrix3x3()
+    for r in range(3):
+        for c in range(3):
+            m.SetElement(r, c, direction[r, c])
+    image.SetDirectionMatrix(m)
 
 
 def precise(image, value, **props):
@@ -165,11 +170,7 @@ def test_linear_field_with_a_sheared_mirroring_direction_is_exact():
         image = image_from_array(values, spacing, (1.0, 2.0, 3.0))
         expected = c / np.array(spacing)
         if direction is not None:
-            m = vtkMatrix3x3()
-            for r in range(3):
-                for col in range(3):
-                    m.SetElement(r, col, direction[r, col])
-            image.SetDirectionMatrix(m)
+            set_direction(image, direction)
             expected = np.linalg.inv(direction).T @ expected
         for mode in (vtkPreciseMarchingCubes.NORMALS_GRADIENT,
                      vtkPreciseMarchingCubes.NORMALS_CENTRAL_DIFFERENCE):
