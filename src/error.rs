@@ -5,7 +5,11 @@ use thiserror::Error;
 /// Why an extraction could not run: a caller mistake, a resource limit,
 /// the caller's own stop ([`Error::Aborted`]) or a host executor that did
 /// not run its tasks ([`Error::Executor`]); none is a panic.
+///
+/// Non-exhaustive: later versions may add variants (a `match` needs a
+/// wildcard arm), so that a new way to fail is not a breaking change.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum Error {
     /// A dimension is below 2 (a volume needs at least one cell per axis).
     #[error("dimension {axis} is {value}; every dimension must be at least 2")]
