@@ -72,8 +72,8 @@ pub(crate) type KeyMap<V> = HashMap<[u64; 3], V, BuildHasherDefault<KeyHasher>>;
 
 /// The float next to the finite `x` towards +infinity (`up`) or
 /// -infinity (`f64::next_up` / `next_down`, newer than the crate's
-/// minimum Rust).
-fn next_float(x: f64, up: bool) -> f64 {
+/// minimum Rust). (Towards the infinity it is, an infinite `x` gives NaN.)
+pub(crate) fn next_float(x: f64, up: bool) -> f64 {
     if x == 0.0 {
         let tiny = f64::from_bits(1);
         return if up { tiny } else { -tiny };

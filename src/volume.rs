@@ -610,6 +610,7 @@ impl<'a, T: Scalar> Grid<'a, T> {
 #[cfg(test)]
 mod tests {
     use super::Scalar;
+    use crate::extract::next_float;
 
     /// The comparison in `f64`, as the default `inside_run` makes it.
     fn reference<T: Scalar>(run: &[T], iso: f64) -> Vec<u8> {
@@ -700,7 +701,14 @@ mod tests {
             } else {
                 v.to_bits() - 1
             });
-            isos.extend([x, x.next_up_f64(), x.next_down_f64(), (x + up as f64) / 2.0]);
+            // (An infinite `x` steps to NaN, dropped below, or to the
+            // largest finite value.)
+            isos.extend([
+                x,
+                next_float(x, true),
+                next_float(x, false),
+                (x + up as f64) / 2.0,
+            ]);
         }
         for iso in isos.into_iter().filter(|x| !x.is_nan()) {
             for chunk in vals.chunks(97) {
@@ -709,28 +717,6 @@ mod tests {
                 assert_eq!(bits, reference(chunk, iso), "iso {iso:e}");
                 assert_eq!(finite, chunk.iter().all(|v| v.is_finite()));
             }
-        }
-    }
-
-    /// `f64::next_up` / `next_down` for the test (stable only since Rust
-    /// 1.86).
-    trait Adjacent {
-        fn next_up_f64(self) -> f64;
-        fn next_down_f64(self) -> f64;
-    }
-    impl Adjacent for f64 {
-        fn next_up_f64(self) -> f64 {
-            if self.is_infinite() && self > 0.0 {
-                return self;
-            }
-            if self == 0.0 {
-                return f64::from_bits(1);
-            }
-            let b = self.to_bits();
-            f64::from_bits(if self > 0.0 { b + 1 } else { b - 1 })
-        }
-        fn next_down_f64(self) -> f64 {
-            -(-self).next_up_f64()
         }
     }
 
