@@ -1285,21 +1285,23 @@ def memory_running_out_in_refinement_is_an_error():
     status 1 and no output: a refined cell's triangles and its edge
     decisions grew without a check past the cell's reservation, and the
     failed allocation aborted the process (the ParaView session with
-    it)."""
-    d = fresh_dir("out-of-memory")
-    out = os.path.join(d, "o.vtp")
-    script = 'ulimit -v 900000; exec "$0" "$@"'
-    environment = dict(os.environ)
-    environment.pop("DISPLAY", None)
-    r = subprocess.run(["/bin/sh", "-c", script, TOOL, "--sample", "atoms", "--epsilon", "1e-6",
-                        "--max-level", "10", "--rule", "B", "--threads", "1", "--normals",
-                        "none", "-q", "-o", out],
-                       capture_output=True, text=True, env=environment, timeout=TIMEOUT)
-    expect(r.returncode == 1, f"exit status {r.returncode}, stderr {r.stderr[-400:]!r}")
-    lines = r.stderr.splitlines()
-    expect(len(lines) == 1 and lines[0].startswith("precisemc: error: atoms: ") and
-           "out of memory" in lines[0], f"stderr: {r.stderr[-400:]!r}")
-    expect(os.listdir(d) == [], f"left behind: {os.listdir(d)}")
+    it). On one thread and on two (each worker refining its own cell)."""
+    for threads in ("1", "2"):
+        d = fresh_dir(f"out-of-memory-{threads}")
+        out = os.path.join(d, "o.vtp")
+        script = 'ulimit -v 900000; exec "$0" "$@"'
+        environment = dict(os.environ)
+        environment.pop("DISPLAY", None)
+        r = subprocess.run(["/bin/sh", "-c", script, TOOL, "--sample", "atoms", "--epsilon",
+                            "1e-6", "--max-level", "10", "--rule", "B", "--threads", threads,
+                            "--normals", "none", "-q", "-o", out],
+                           capture_output=True, text=True, env=environment, timeout=TIMEOUT)
+        expect(r.returncode == 1,
+               f"{threads} threads: exit status {r.returncode}, stderr {r.stderr[-400:]!r}")
+        lines = r.stderr.splitlines()
+        expect(len(lines) == 1 and lines[0].startswith("precisemc: error: atoms: ") and
+               "out of memory" in lines[0], f"{threads} threads: stderr: {r.stderr[-400:]!r}")
+        expect(os.listdir(d) == [], f"{threads} threads: left behind: {os.listdir(d)}")
 
 
 def limited_run(limit_blocks, *args):
