@@ -6,6 +6,7 @@ use crate::filter::{trilinear_gradient, Trilinear};
 use crate::memory::reserve;
 use crate::options::NormalMode;
 use crate::par::Exec;
+use crate::recycle;
 use crate::volume::{Scalar, Volume};
 use crate::Error;
 
@@ -167,16 +168,17 @@ fn world_gradient(g: DVec3, spacing: [f64; 3], a: f64, b: f64) -> [f32; 3] {
 /// `out(gradient)` for each of `index_points`, where `gradient` is the
 /// index-space gradient `mode` (not [`NormalMode::None`]) takes at the
 /// point; (0, 0, 0) where neither way finds a finite one. Runs on `exec`
-/// in the points' order (deterministic); an error when the output's
-/// memory is not available.
-fn per_point<T: Scalar, R: Send>(
+/// in the points' order (deterministic), into a vector kept from an
+/// earlier mesh when there is one ([`recycle::VECTORS`]); an error when
+/// the output's memory is not available.
+fn per_point<T: Scalar>(
     filter: &Trilinear<'_, T>,
     index_points: &[[f64; 3]],
     mode: NormalMode,
     exec: Exec<'_>,
-    out: impl Fn(DVec3) -> R + Sync + Send,
-) -> Result<Vec<R>, Error> {
-    let mut result = Vec::new();
+    out: impl Fn(DVec3) -> [f32; 3] + Sync + Send,
+) -> Result<Vec<[f32; 3]>, Error> {
+    let mut result = recycle::VECTORS.take(index_points.len());
     reserve(&mut result, index_points.len())?;
     let g = &filter.grid;
     let dims = g.dims;

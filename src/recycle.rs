@@ -7,7 +7,7 @@
 //! the VTK filter, 300 page faults a call on the 128 x 96 x 24 EPI scan of
 //! the benchmark, about a third of the call's time. The buffers that take
 //! part (slab points, triangles and levels, the edge caches, the mesh's
-//! arrays once the C caller releases them) go back to process-wide bins
+//! arrays, normals and gradients included, once the caller releases them) go back to process-wide bins
 //! here instead, up to [`RETAIN_LIMIT`] bytes in all, and the next call
 //! takes them. Contents are never read before being written, so the
 //! output does not depend on what a bin hands out.
@@ -45,6 +45,7 @@ pub fn release_retained_memory() -> usize {
         + LEVELS.release()
         + MESH_TRIS.release()
         + REMAPS.release()
+        + VECTORS.release()
         + SCRATCH.release()
 }
 
@@ -55,6 +56,7 @@ pub(crate) fn hold_all(held: &mut Vec<Box<dyn Any>>) {
     LEVELS.hold(held);
     MESH_TRIS.hold(held);
     REMAPS.hold(held);
+    VECTORS.hold(held);
     SCRATCH.hold(held);
 }
 
@@ -172,6 +174,8 @@ pub(crate) static LEVELS: Bin<Vec<u8>> = Bin::new();
 pub(crate) static MESH_TRIS: Bin<Vec<[u64; 3]>> = Bin::new();
 /// Slab-to-mesh point numbering while assembling.
 pub(crate) static REMAPS: Bin<Vec<u64>> = Bin::new();
+/// The mesh's normals and gradients.
+pub(crate) static VECTORS: Bin<Vec<[f32; 3]>> = Bin::new();
 /// Edge caches and inside bits of the slab workers.
 pub(crate) static SCRATCH: Bin<LayerScratch> = Bin::new();
 
@@ -182,6 +186,8 @@ pub(crate) fn give_mesh(m: crate::Mesh) {
     POINTS.give(m.index_points);
     MESH_TRIS.give(m.triangles);
     LEVELS.give(m.levels);
+    VECTORS.give(m.normals);
+    VECTORS.give(m.gradients);
 }
 
 /// The same allocation as `DVec3`s (same size and alignment: the in-place
@@ -231,9 +237,13 @@ mod tests {
             v
         };
         let (mine, other) = (field(0.41, 0.37), field(0.23, 0.61));
+        // Normals and gradients too: they fill vectors kept from
+        // earlier meshes.
         let options = |eps: f64, threads: usize| Options {
             epsilon: eps,
             threads,
+            normals: crate::NormalMode::Gradient,
+            gradients: true,
             ..Options::default()
         };
         for (eps, threads) in [(0.0, 1), (0.0, 2), (0.01, 2)] {
@@ -256,6 +266,9 @@ mod tests {
                 assert_eq!(again.index_points, fresh.index_points);
                 assert_eq!(again.triangles, fresh.triangles);
                 assert_eq!(again.levels, fresh.levels);
+                assert_eq!(again.normals, fresh.normals);
+                assert_eq!(again.gradients, fresh.gradients);
+                assert!(!again.normals.is_empty() && !again.gradients.is_empty());
                 give_mesh(again);
             }
         }
