@@ -148,14 +148,16 @@ SCALAR = {"int8": 0, "uint8": 1, "int16": 2, "uint16": 3, "int32": 4, "uint32": 
 
 
 class PmcVolume(ctypes.Structure):
-    _fields_ = [("data", ctypes.c_void_p), ("len", ctypes.c_uint64),
+    _fields_ = [("struct_size", ctypes.c_uint64), ("data", ctypes.c_void_p),
+                ("len", ctypes.c_uint64),
                 ("scalar_type", ctypes.c_uint32), ("dims", ctypes.c_uint64 * 3),
                 ("strides", ctypes.c_int64 * 3), ("origin", ctypes.c_double * 3),
                 ("spacing", ctypes.c_double * 3)]
 
 
 class PmcDistance(ctypes.Structure):
-    _fields_ = [("max", ctypes.c_double), ("mean", ctypes.c_double), ("rms", ctypes.c_double),
+    _fields_ = [("struct_size", ctypes.c_uint64), ("max", ctypes.c_double),
+                ("mean", ctypes.c_double), ("rms", ctypes.c_double),
                 ("samples", ctypes.c_uint64), ("unresolved", ctypes.c_uint64)]
 
 
@@ -180,7 +182,8 @@ def measure(volume, iso, points, tris, cap, density):
     stride = max(1, math.ceil(ntri / cap)) if ntri else 1
     sub = np.ascontiguousarray(tris[::stride], dtype=np.int64)
     pts = np.ascontiguousarray(points, dtype=np.float64)
-    v = PmcVolume()
+    v = PmcVolume()  # zeroed
+    v.struct_size = ctypes.sizeof(PmcVolume)
     v.data = volume.ctypes.data
     v.len = volume.size
     v.scalar_type = SCALAR[str(volume.dtype)]
@@ -189,6 +192,7 @@ def measure(volume, iso, points, tris, cap, density):
     v.origin[:] = [0.0, 0.0, 0.0]
     v.spacing[:] = [1.0, 1.0, 1.0]
     out = PmcDistance()
+    out.struct_size = ctypes.sizeof(PmcDistance)
     status = lib.pmc_measure_distance(ctypes.byref(v), iso, pts.ctypes.data, len(pts),
                                       sub.ctypes.data, len(sub), density, ctypes.byref(out))
     if status != 0:

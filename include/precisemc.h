@@ -325,8 +325,21 @@ typedef struct pmc_options pmc_options;
  * Every field is validated before any sample is read: an inconsistent
  * volume is `PMC_STATUS_INVALID_ARGUMENT` (`PMC_STATUS_NULL_ARGUMENT` for
  * `data == NULL`), never an out-of-bounds read.
+ *
+ * Set `struct_size` to `sizeof(pmc_volume)` first (zero-initialise the
+ * struct, then set the fields), so that later versions of the library
+ * can append fields without breaking callers built against this header.
  */
 typedef struct pmc_volume {
+    /**
+     * Size in bytes of the caller's struct: set it to
+     * `sizeof(pmc_volume)`. No default: 0, or less than the size of the
+     * first `pmc_volume` layout (128 bytes on 64-bit platforms), is
+     * `PMC_STATUS_INVALID_ARGUMENT`, checked before any other field is
+     * read. A larger value (a caller built against a later header) is
+     * accepted; the library reads only the fields it knows.
+     */
+    uint64_t struct_size;
     /**
      * First element of the samples; must be aligned for `scalar_type`.
      */
@@ -371,8 +384,21 @@ typedef struct pmc_volume {
 /**
  * Distance of a mesh to the trilinear isosurface, in cell units (index
  * space), as returned by `pmc_measure_distance`.
+ *
+ * Set `struct_size` to `sizeof(pmc_distance)` before the call; the
+ * library fills the other fields. (In Rust, `Default` sets it.)
  */
 typedef struct pmc_distance {
+    /**
+     * Size in bytes of the caller's struct, set by the caller to
+     * `sizeof(pmc_distance)` and never written by the library. No
+     * default: 0, or less than the size of the first `pmc_distance`
+     * layout (48 bytes), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
+     * written. A larger value (a caller built against a later header) is
+     * accepted: the library writes the fields it knows and no byte past
+     * them.
+     */
+    uint64_t struct_size;
     /**
      * Largest distance of any sample point.
      */
@@ -399,8 +425,21 @@ typedef struct pmc_distance {
 /**
  * Counters and timings of one extraction, filled by `pmc_mesh_stats`.
  * Counts are exact; times are wall-clock seconds.
+ *
+ * Set `struct_size` to `sizeof(pmc_stats)` before the call; the library
+ * fills the other fields. (In Rust, `Default` sets it.)
  */
 typedef struct pmc_stats {
+    /**
+     * Size in bytes of the caller's struct, set by the caller to
+     * `sizeof(pmc_stats)` and never written by the library. No default:
+     * 0, or less than the size of the first `pmc_stats` layout (152 bytes
+     * on 64-bit platforms), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
+     * written. A larger value (a caller built against a later header) is
+     * accepted: the library writes the fields it knows and no byte past
+     * them.
+     */
+    uint64_t struct_size;
     /**
      * Cells in the volume, `(dims[0]-1)(dims[1]-1)(dims[2]-1)`.
      */
@@ -605,7 +644,9 @@ size_t pmc_last_error_message(char *buf, size_t len);
  *
  * - `PMC_STATUS_NULL_ARGUMENT` if `volume`, `volume->data` or `out_mesh`
  *   is `NULL`;
- * - `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume (see
+ * - `PMC_STATUS_INVALID_ARGUMENT` for a `volume->struct_size` that is 0
+ *   or smaller than the first `pmc_volume` layout (checked before any
+ *   other field of the volume), an invalid volume (see
  *   `pmc_volume`), an isovalue that is NaN or infinite, or an index
  *   offset out of range, or when the options' executor returned without
  *   running every task (see `pmc_options_set_executor`);
@@ -640,10 +681,11 @@ size_t pmc_last_error_message(char *buf, size_t len);
  *
  * # Safety
  *
- * `volume` must be `NULL` or point to a `pmc_volume` whose `data` is
- * `NULL` or readable for `len` elements of `scalar_type`, not written
- * during the call; `options` must be `NULL` or a live handle from
- * `pmc_options_new`; `out_mesh` must be `NULL` or writable.
+ * `volume` must be `NULL` or point to a `pmc_volume` readable for its
+ * `struct_size` bytes, whose `data` is `NULL` or readable for `len`
+ * elements of `scalar_type`, not written during the call; `options`
+ * must be `NULL` or a live handle from `pmc_options_new`; `out_mesh`
+ * must be `NULL` or writable.
  */
 pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const struct pmc_options *options, struct pmc_mesh **out_mesh);
 
@@ -668,15 +710,20 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * `origin + spacing * o` per axis (with the unmoved origin they would be
  * measured `o` samples away from their surface). `triangles` holds
  * `triangle_count` triples of point ids. On success stores the
- * statistics in `*out` and returns `PMC_STATUS_OK`; `*out` is zeroed on
- * failure. Errors:
+ * statistics in `*out` and returns `PMC_STATUS_OK`. `out` is checked
+ * first (not `NULL`, then its `struct_size`), then `volume` (not `NULL`,
+ * then its `struct_size`): when `out` is `NULL` or its `struct_size` is
+ * invalid nothing is written; on any later failure every field of `*out`
+ * but `struct_size` is zeroed. Errors:
  * `PMC_STATUS_NULL_ARGUMENT` for a `NULL` `volume`, `volume->data` or
  * `out` (or `points`/`triangles` with a non-zero count);
- * `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume, a non-finite
- * isovalue or point, a point outside the volume's representable index
- * range (`(p - origin) / spacing` overflows) or more than 1e60 cells
- * outside the volume (`precisemc::accuracy::MAX_MEASURE_REACH`), a point
- * id negative or not below `point_count` (the message names the first
+ * `PMC_STATUS_INVALID_ARGUMENT` for an `out->struct_size` or a
+ * `volume->struct_size` that is 0 or smaller than the struct's first
+ * layout (see `pmc_distance` and `pmc_volume`), an invalid volume, a
+ * non-finite isovalue or point, a point outside the volume's
+ * representable index range (`(p - origin) / spacing` overflows) or
+ * more than 1e60 cells outside the volume
+ * (`precisemc::accuracy::MAX_MEASURE_REACH`), a point id negative or not below `point_count` (the message names the first
  * such triangle, its id and the point count), or `density > 1024`;
  * `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
  * made. Uses all cores, on the extraction's helper threads beside the
@@ -690,7 +737,7 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * `volume` as for `pmc_extract`; `points` must be readable for
  * `3 * point_count` doubles and `triangles` for `3 * triangle_count`
  * integers (either may be `NULL` when its count is 0); `out` must be
- * `NULL` or writable.
+ * `NULL` or writable for its `struct_size` bytes.
  */
 pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue, const double *points, uint64_t point_count, const int64_t *triangles, uint64_t triangle_count, uint32_t density, struct pmc_distance *out);
 
@@ -832,15 +879,18 @@ const uint8_t *pmc_mesh_triangle_levels(const struct pmc_mesh *mesh);
 
 /**
  * Copies the statistics of the extraction that produced `mesh` into
- * `*out`.
+ * `*out`: every field but `struct_size`, which the caller sets to
+ * `sizeof(pmc_stats)` before the call.
  *
- * Returns `PMC_STATUS_NULL_ARGUMENT` (nothing written) if `mesh` or `out`
- * is `NULL`.
+ * Returns, with nothing written, `PMC_STATUS_NULL_ARGUMENT` if `mesh` or
+ * `out` is `NULL`, and `PMC_STATUS_INVALID_ARGUMENT` if
+ * `out->struct_size` is 0 or smaller than the first `pmc_stats` layout.
+ * `out` need not be aligned.
  *
  * # Safety
  *
  * `mesh` must be `NULL` or a live handle from `pmc_extract`; `out` must
- * be `NULL` or valid for writing a `pmc_stats`.
+ * be `NULL` or valid for reading and writing its `struct_size` bytes.
  */
 pmc_status pmc_mesh_stats(const struct pmc_mesh *mesh, struct pmc_stats *out);
 
@@ -849,8 +899,7 @@ pmc_status pmc_mesh_stats(const struct pmc_mesh *mesh, struct pmc_stats *out);
  * patch was unsound (two split points on one spot, a non-manifold edge,
  * or a patch turned inside out), or, with the Classic topology, their
  * table patch is not the trilinear interpolant's (see `cells_refined_on_faces_only` in the
- * README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
- * fixed.
+ * README). 0 for a `NULL` mesh. Not a field of `pmc_stats`.
  *
  * # Safety
  *
@@ -861,8 +910,8 @@ uint64_t pmc_mesh_cells_refined_on_faces_only(const struct pmc_mesh *mesh);
 /**
  * Cells where refinement stalled on a fold or neck of the ideal surface
  * and that were meshed again on 4x4x4 sub-cells (see `cells_on_subcells`
- * in the README). 0 for a `NULL` mesh and with refinement off. Not in
- * `pmc_stats`, whose layout is fixed.
+ * in the README). 0 for a `NULL` mesh and with refinement off. Not a
+ * field of `pmc_stats`.
  *
  * # Safety
  *
@@ -874,8 +923,7 @@ uint64_t pmc_mesh_cells_on_subcells(const struct pmc_mesh *mesh);
  * Marching Cubes polygons cut along other diagonals before refinement,
  * because refinement could not bring a diagonal of the case table's onto
  * the ideal surface (see `recut_polygons` in the README). 0 for a `NULL`
- * mesh and with refinement off. Not in `pmc_stats`, whose layout is
- * fixed.
+ * mesh and with refinement off. Not a field of `pmc_stats`.
  *
  * # Safety
  *

@@ -3,6 +3,7 @@
 //! is per thread.
 
 use std::ffi::{c_int, c_void, CStr};
+use std::mem::size_of;
 use std::ops::ControlFlow;
 use std::ptr;
 
@@ -29,6 +30,7 @@ fn sphere(n: u64, c: [f64; 3]) -> Vec<f32> {
 
 fn c_volume(data: &[f32], dims: [u64; 3]) -> pmc_volume {
     pmc_volume {
+        struct_size: std::mem::size_of::<pmc_volume>() as u64,
         data: data.as_ptr().cast(),
         len: data.len() as u64,
         scalar_type: PmcScalarType::F32 as pmc_scalar_type,
@@ -179,19 +181,29 @@ fn last_error() -> String {
 
 #[test]
 fn layout_matches_the_c_tests() {
-    use std::mem::{offset_of, size_of};
-    assert_eq!(size_of::<pmc_volume>(), 120);
-    assert_eq!(offset_of!(pmc_volume, len), 8);
-    assert_eq!(offset_of!(pmc_volume, scalar_type), 16);
-    assert_eq!(offset_of!(pmc_volume, dims), 24);
-    assert_eq!(offset_of!(pmc_volume, strides), 48);
-    assert_eq!(offset_of!(pmc_volume, origin), 72);
-    assert_eq!(offset_of!(pmc_volume, spacing), 96);
-    assert_eq!(size_of::<pmc_stats>(), 144);
-    assert_eq!(offset_of!(pmc_stats, max_level), 80);
-    assert_eq!(offset_of!(pmc_stats, mean_level), 88);
-    assert_eq!(offset_of!(pmc_stats, budget_reached), 96);
-    assert_eq!(offset_of!(pmc_stats, time_total), 136);
+    use std::mem::offset_of;
+    // The version 1 layouts (struct_size first). Sizes the library
+    // accepts are pinned by `struct_size_is_checked_and_respected`.
+    assert_eq!(size_of::<pmc_volume>(), 128);
+    assert_eq!(offset_of!(pmc_volume, struct_size), 0);
+    assert_eq!(offset_of!(pmc_volume, data), 8);
+    assert_eq!(offset_of!(pmc_volume, len), 16);
+    assert_eq!(offset_of!(pmc_volume, scalar_type), 24);
+    assert_eq!(offset_of!(pmc_volume, dims), 32);
+    assert_eq!(offset_of!(pmc_volume, strides), 56);
+    assert_eq!(offset_of!(pmc_volume, origin), 80);
+    assert_eq!(offset_of!(pmc_volume, spacing), 104);
+    assert_eq!(size_of::<pmc_stats>(), 152);
+    assert_eq!(offset_of!(pmc_stats, struct_size), 0);
+    assert_eq!(offset_of!(pmc_stats, cells), 8);
+    assert_eq!(offset_of!(pmc_stats, max_level), 88);
+    assert_eq!(offset_of!(pmc_stats, mean_level), 96);
+    assert_eq!(offset_of!(pmc_stats, budget_reached), 104);
+    assert_eq!(offset_of!(pmc_stats, time_total), 144);
+    assert_eq!(size_of::<pmc_distance>(), 48);
+    assert_eq!(offset_of!(pmc_distance, struct_size), 0);
+    assert_eq!(offset_of!(pmc_distance, max), 8);
+    assert_eq!(offset_of!(pmc_distance, unresolved), 40);
     assert_eq!(size_of::<PmcStatus>(), 4);
     assert_eq!(PMC_MAX_LEVEL_LIMIT, precisemc::MAX_LEVEL_LIMIT);
 }
@@ -440,6 +452,7 @@ fn every_scalar_type_equals_rust_api() {
         ($t:ty, $st:expr) => {{
             let d: Vec<$t> = base.iter().map(|&x| x as $t).collect();
             let cv = pmc_volume {
+                struct_size: std::mem::size_of::<pmc_volume>() as u64,
                 data: d.as_ptr().cast(),
                 len: d.len() as u64,
                 scalar_type: $st as u32,

@@ -304,6 +304,7 @@ fn c_api_selects_the_filter() {
     let values = blobs(dims, 4, 5);
     let vol = Volume::new(&values, dims_u64(dims));
     let cv = pmc_volume {
+        struct_size: std::mem::size_of::<pmc_volume>() as u64,
         data: values.as_ptr().cast(),
         len: values.len() as u64,
         scalar_type: PmcScalarType::F64 as u32,

@@ -143,6 +143,7 @@ fn c_api_until(vol: &samples::SampleVolume, stop: &AtomicBool) {
 fn c_api_once(vol: &samples::SampleVolume) -> bool {
     use precisemc::ffi::*;
     let cv = pmc_volume {
+        struct_size: std::mem::size_of::<pmc_volume>() as u64,
         data: vol.data.as_ptr().cast(),
         len: vol.data.len() as u64,
         scalar_type: PmcScalarType::F32 as pmc_scalar_type,

@@ -553,6 +553,7 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
 fn c_api_names_points_beyond_the_index_range() {
     let values = [0.0f64; 8];
     let mut cv = pmc_volume {
+        struct_size: std::mem::size_of::<pmc_volume>() as u64,
         data: values.as_ptr().cast(),
         len: 8,
         scalar_type: 9,
@@ -638,6 +639,7 @@ fn c_api_names_bad_point_ids() {
 /// The C API's view of a contiguous float64 volume.
 fn c_volume(values: &[f64], dims: [usize; 3], origin: [f64; 3], spacing: [f64; 3]) -> pmc_volume {
     pmc_volume {
+        struct_size: std::mem::size_of::<pmc_volume>() as u64,
         data: values.as_ptr().cast(),
         len: values.len() as u64,
         scalar_type: 9,

@@ -68,7 +68,8 @@ Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surfac
 
   // The measure works in the index frame of the samples: origin 0, spacing
   // 1, so the distances come out in cells.
-  pmc_volume v;
+  pmc_volume v = pmc_volume(); // zeroed, then struct_size first
+  v.struct_size = sizeof(v);
   v.data = contiguous->GetVoidPointer(0);
   v.len = static_cast<uint64_t>(contiguous->GetNumberOfValues());
   v.scalar_type = static_cast<pmc_scalar_type>(type);
@@ -139,7 +140,8 @@ Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surfac
   {
     return result;
   }
-  pmc_distance out;
+  pmc_distance out = pmc_distance();
+  out.struct_size = sizeof(out);
   pmc_status status = pmc_measure_distance(&v, value, xyz.data(), static_cast<uint64_t>(np),
     tris.data(), static_cast<uint64_t>(tris.size() / 3), density, &out);
   if (status != PMC_STATUS_OK)

@@ -1104,7 +1104,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
         static_cast<uint64_t>(sampleExtent[4] - dataExtent[4]) *
           static_cast<uint64_t>(dataDims[0]) * static_cast<uint64_t>(dataDims[1])) +
     static_cast<uint64_t>(this->ArrayComponent);
-  pmc_volume volume;
+  pmc_volume volume = pmc_volume(); // zeroed, then struct_size first
+  volume.struct_size = sizeof(volume);
   volume.data = static_cast<const char*>(contiguous->GetVoidPointer(0)) +
     static_cast<size_t>(first) * contiguous->GetDataTypeSize();
   volume.len = static_cast<uint64_t>(contiguous->GetNumberOfValues()) - first;
@@ -1237,7 +1238,8 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
       output->Initialize();
       return 1;
     }
-    pmc_stats stats;
+    pmc_stats stats = pmc_stats();
+    stats.struct_size = sizeof(stats);
     if ((status = pmc_mesh_stats(mesh.get(), &stats)) != PMC_STATUS_OK)
     {
       vtkErrorMacro(<< "Cannot read PreciseMC statistics: " << LastError(status));

@@ -966,6 +966,7 @@ pub fn fuzz_c_api(data: &[u8]) {
 
     let (ptr, code) = case.laid_out.raw();
     let mut vol = ffi::pmc_volume {
+        struct_size: std::mem::size_of::<ffi::pmc_volume>() as u64,
         data: ptr,
         len: case.laid_out.len() as u64,
         scalar_type: code,
@@ -1320,9 +1321,9 @@ unsafe fn mesh_from_handle(mesh: *const ffi::pmc_mesh) -> Mesh {
                 .map(|c| [c[0], c[1], c[2]])
                 .collect()
         };
-        let mut s = std::mem::MaybeUninit::<ffi::pmc_stats>::zeroed();
-        assert_eq!(ffi::pmc_mesh_stats(mesh, s.as_mut_ptr()) as u32, 0);
-        let s = s.assume_init();
+        // `Default` sets `struct_size`.
+        let mut s = ffi::pmc_stats::default();
+        assert_eq!(ffi::pmc_mesh_stats(mesh, &mut s) as u32, 0);
         let stats = precisemc::Stats {
             cells: s.cells,
             mc_triangles: s.mc_triangles,

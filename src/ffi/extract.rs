@@ -6,7 +6,7 @@ use super::mesh::{into_handle, pmc_mesh};
 use super::options::{pmc_options, OptionsData};
 use super::panic::{status_boundary, Failure};
 use super::status::PmcStatus;
-use super::volume::{core_volume, pmc_volume};
+use super::volume::{core_volume, pmc_volume, volume_ref};
 use crate::Error;
 
 /// The C status and message of a core error.
@@ -37,7 +37,9 @@ pub(super) fn failure(e: Error) -> Failure {
 ///
 /// - `PMC_STATUS_NULL_ARGUMENT` if `volume`, `volume->data` or `out_mesh`
 ///   is `NULL`;
-/// - `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume (see
+/// - `PMC_STATUS_INVALID_ARGUMENT` for a `volume->struct_size` that is 0
+///   or smaller than the first `pmc_volume` layout (checked before any
+///   other field of the volume), an invalid volume (see
 ///   `pmc_volume`), an isovalue that is NaN or infinite, or an index
 ///   offset out of range, or when the options' executor returned without
 ///   running every task (see `pmc_options_set_executor`);
@@ -72,10 +74,11 @@ pub(super) fn failure(e: Error) -> Failure {
 ///
 /// # Safety
 ///
-/// `volume` must be `NULL` or point to a `pmc_volume` whose `data` is
-/// `NULL` or readable for `len` elements of `scalar_type`, not written
-/// during the call; `options` must be `NULL` or a live handle from
-/// `pmc_options_new`; `out_mesh` must be `NULL` or writable.
+/// `volume` must be `NULL` or point to a `pmc_volume` readable for its
+/// `struct_size` bytes, whose `data` is `NULL` or readable for `len`
+/// elements of `scalar_type`, not written during the call; `options`
+/// must be `NULL` or a live handle from `pmc_options_new`; `out_mesh`
+/// must be `NULL` or writable.
 #[no_mangle]
 pub unsafe extern "C" fn pmc_extract(
     volume: *const pmc_volume,
@@ -90,7 +93,7 @@ pub unsafe extern "C" fn pmc_extract(
         // SAFETY: `out_mesh` is non-null and writable per the contract.
         unsafe { out_mesh.write(std::ptr::null_mut()) };
         // SAFETY: per the contract, `volume` is NULL or points to a volume.
-        let v = unsafe { volume.as_ref() }.ok_or(Failure::null("volume"))?;
+        let v = unsafe { volume_ref(volume)? };
         let defaults;
         // SAFETY: per the contract, `options` is NULL or a live handle.
         let opts = match unsafe { OptionsData::from_handle(options) } {

@@ -3,14 +3,26 @@
 use super::extract::failure;
 use super::panic::{status_boundary, Failure};
 use super::status::PmcStatus;
-use super::volume::{core_volume, pmc_volume};
+use super::struct_size::{self, write_fields};
+use super::volume::{core_volume, pmc_volume, volume_ref};
 use crate::accuracy::{measure, MeasureOptions};
 
 /// Distance of a mesh to the trilinear isosurface, in cell units (index
 /// space), as returned by `pmc_measure_distance`.
+///
+/// Set `struct_size` to `sizeof(pmc_distance)` before the call; the
+/// library fills the other fields. (In Rust, `Default` sets it.)
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct pmc_distance {
+    /// Size in bytes of the caller's struct, set by the caller to
+    /// `sizeof(pmc_distance)` and never written by the library. No
+    /// default: 0, or less than the size of the first `pmc_distance`
+    /// layout (48 bytes), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
+    /// written. A larger value (a caller built against a later header) is
+    /// accepted: the library writes the fields it knows and no byte past
+    /// them.
+    pub struct_size: u64,
     /// Largest distance of any sample point.
     pub max: f64,
     /// Mean distance, weighted by triangle area (the plain mean of the
@@ -22,6 +34,30 @@ pub struct pmc_distance {
     pub samples: u64,
     /// Sample points with no isosurface anywhere in the volume (left out).
     pub unresolved: u64,
+}
+
+impl Default for pmc_distance {
+    /// All zero but `struct_size`, `size_of::<pmc_distance>()`.
+    fn default() -> Self {
+        pmc_distance {
+            struct_size: std::mem::size_of::<pmc_distance>() as u64,
+            max: 0.0,
+            mean: 0.0,
+            rms: 0.0,
+            samples: 0,
+            unresolved: 0,
+        }
+    }
+}
+
+/// Writes `d` into `*out`, all fields but `struct_size`.
+///
+/// # Safety
+///
+/// `out` must be writable for `PMC_DISTANCE_SIZE_V1` bytes (checked with
+/// `struct_size::check`).
+unsafe fn write(out: *mut pmc_distance, d: pmc_distance) {
+    write_fields!(pmc_distance, out, d, max, mean, rms, samples, unresolved);
 }
 
 /// Measures how far a triangle mesh lies from the isosurface `isovalue`
@@ -44,15 +80,20 @@ pub struct pmc_distance {
 /// `origin + spacing * o` per axis (with the unmoved origin they would be
 /// measured `o` samples away from their surface). `triangles` holds
 /// `triangle_count` triples of point ids. On success stores the
-/// statistics in `*out` and returns `PMC_STATUS_OK`; `*out` is zeroed on
-/// failure. Errors:
+/// statistics in `*out` and returns `PMC_STATUS_OK`. `out` is checked
+/// first (not `NULL`, then its `struct_size`), then `volume` (not `NULL`,
+/// then its `struct_size`): when `out` is `NULL` or its `struct_size` is
+/// invalid nothing is written; on any later failure every field of `*out`
+/// but `struct_size` is zeroed. Errors:
 /// `PMC_STATUS_NULL_ARGUMENT` for a `NULL` `volume`, `volume->data` or
 /// `out` (or `points`/`triangles` with a non-zero count);
-/// `PMC_STATUS_INVALID_ARGUMENT` for an invalid volume, a non-finite
-/// isovalue or point, a point outside the volume's representable index
-/// range (`(p - origin) / spacing` overflows) or more than 1e60 cells
-/// outside the volume (`precisemc::accuracy::MAX_MEASURE_REACH`), a point
-/// id negative or not below `point_count` (the message names the first
+/// `PMC_STATUS_INVALID_ARGUMENT` for an `out->struct_size` or a
+/// `volume->struct_size` that is 0 or smaller than the struct's first
+/// layout (see `pmc_distance` and `pmc_volume`), an invalid volume, a
+/// non-finite isovalue or point, a point outside the volume's
+/// representable index range (`(p - origin) / spacing` overflows) or
+/// more than 1e60 cells outside the volume
+/// (`precisemc::accuracy::MAX_MEASURE_REACH`), a point id negative or not below `point_count` (the message names the first
 /// such triangle, its id and the point count), or `density > 1024`;
 /// `PMC_STATUS_OUT_OF_MEMORY` when the copies of the arrays cannot be
 /// made. Uses all cores, on the extraction's helper threads beside the
@@ -66,7 +107,7 @@ pub struct pmc_distance {
 /// `volume` as for `pmc_extract`; `points` must be readable for
 /// `3 * point_count` doubles and `triangles` for `3 * triangle_count`
 /// integers (either may be `NULL` when its count is 0); `out` must be
-/// `NULL` or writable.
+/// `NULL` or writable for its `struct_size` bytes.
 #[no_mangle]
 pub unsafe extern "C" fn pmc_measure_distance(
     volume: *const pmc_volume,
@@ -82,10 +123,20 @@ pub unsafe extern "C" fn pmc_measure_distance(
         if out.is_null() {
             return Err(Failure::null("out"));
         }
-        // SAFETY: `out` is non-null and writable per the contract.
-        unsafe { out.write(pmc_distance::default()) };
+        // SAFETY: `out` is non-null and writable for its `struct_size`
+        // bytes per the contract, hence readable for the first 8.
+        unsafe {
+            struct_size::check(
+                out.cast_const(),
+                "pmc_distance",
+                struct_size::PMC_DISTANCE_SIZE_V1,
+            )?
+        };
+        // Zeroed, in case of a failure below.
+        // SAFETY: `out` is writable for the version 1 size, just checked.
+        unsafe { write(out, pmc_distance::default()) };
         // SAFETY: per the contract, `volume` is NULL or points to a volume.
-        let v = unsafe { volume.as_ref() }.ok_or(Failure::null("volume"))?;
+        let v = unsafe { volume_ref(volume)? };
         // SAFETY: as for pmc_extract.
         let volume = unsafe { core_volume(v, [0; 3])? };
         // SAFETY: `points` is readable for 3 * point_count doubles.
@@ -135,13 +186,17 @@ pub unsafe extern "C" fn pmc_measure_distance(
         let d = measure(&volume, isovalue, &index_points, &tris, &options).map_err(failure)?;
         // SAFETY: as above.
         unsafe {
-            out.write(pmc_distance {
-                max: d.max,
-                mean: d.mean,
-                rms: d.rms,
-                samples: d.samples,
-                unresolved: d.unresolved,
-            })
+            write(
+                out,
+                pmc_distance {
+                    struct_size: 0, // not written
+                    max: d.max,
+                    mean: d.mean,
+                    rms: d.rms,
+                    samples: d.samples,
+                    unresolved: d.unresolved,
+                },
+            )
         };
         Ok(())
     })

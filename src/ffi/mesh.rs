@@ -5,6 +5,7 @@ use std::sync::OnceLock;
 use super::buffer::hand_out;
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
+use super::struct_size::{self, write_fields};
 use crate::volume::index_to_world;
 use crate::{Mesh, Stats};
 
@@ -77,9 +78,20 @@ fn ptr_or_null<T, U>(v: &[T]) -> *const U {
 
 /// Counters and timings of one extraction, filled by `pmc_mesh_stats`.
 /// Counts are exact; times are wall-clock seconds.
+///
+/// Set `struct_size` to `sizeof(pmc_stats)` before the call; the library
+/// fills the other fields. (In Rust, `Default` sets it.)
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct pmc_stats {
+    /// Size in bytes of the caller's struct, set by the caller to
+    /// `sizeof(pmc_stats)` and never written by the library. No default:
+    /// 0, or less than the size of the first `pmc_stats` layout (152 bytes
+    /// on 64-bit platforms), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
+    /// written. A larger value (a caller built against a later header) is
+    /// accepted: the library writes the fields it knows and no byte past
+    /// them.
+    pub struct_size: u64,
     /// Cells in the volume, `(dims[0]-1)(dims[1]-1)(dims[2]-1)`.
     pub cells: u64,
     /// Triangles produced by Marching Cubes, before refinement.
@@ -135,6 +147,34 @@ pub struct pmc_stats {
     pub time_total: f64,
 }
 
+impl Default for pmc_stats {
+    /// All zero but `struct_size`, `size_of::<pmc_stats>()`.
+    fn default() -> Self {
+        pmc_stats {
+            struct_size: std::mem::size_of::<pmc_stats>() as u64,
+            cells: 0,
+            mc_triangles: 0,
+            output_triangles: 0,
+            output_points: 0,
+            ambiguous_cells: 0,
+            skipped_nonfinite_cells: 0,
+            samples_evaluated: 0,
+            split_points: 0,
+            projection_failures: 0,
+            faces_above_epsilon: 0,
+            max_level: 0,
+            effective_max_level: 0,
+            mean_level: 0.0,
+            budget_reached: 0,
+            time_mc: 0.0,
+            time_refine: 0.0,
+            time_assemble: 0.0,
+            time_normals: 0.0,
+            time_total: 0.0,
+        }
+    }
+}
+
 impl From<&Stats> for pmc_stats {
     fn from(s: &Stats) -> Self {
         // Destructured so that a new core field fails to compile here.
@@ -158,12 +198,14 @@ impl From<&Stats> for pmc_stats {
             time_assemble,
             time_normals,
             time_total,
-            // Have their own accessors: this struct's layout is fixed (ABI).
+            // Have their own accessors, not fields of `pmc_stats` (which may
+            // grow, see `struct_size`, but keeps its first layout's fields).
             cells_refined_on_faces_only: _,
             recut_polygons: _,
             cells_on_subcells: _,
         } = s.clone();
         pmc_stats {
+            struct_size: std::mem::size_of::<pmc_stats>() as u64,
             cells,
             mc_triangles,
             output_triangles,
@@ -377,15 +419,18 @@ pub unsafe extern "C" fn pmc_mesh_triangle_levels(mesh: *const pmc_mesh) -> *con
 }
 
 /// Copies the statistics of the extraction that produced `mesh` into
-/// `*out`.
+/// `*out`: every field but `struct_size`, which the caller sets to
+/// `sizeof(pmc_stats)` before the call.
 ///
-/// Returns `PMC_STATUS_NULL_ARGUMENT` (nothing written) if `mesh` or `out`
-/// is `NULL`.
+/// Returns, with nothing written, `PMC_STATUS_NULL_ARGUMENT` if `mesh` or
+/// `out` is `NULL`, and `PMC_STATUS_INVALID_ARGUMENT` if
+/// `out->struct_size` is 0 or smaller than the first `pmc_stats` layout.
+/// `out` need not be aligned.
 ///
 /// # Safety
 ///
 /// `mesh` must be `NULL` or a live handle from `pmc_extract`; `out` must
-/// be `NULL` or valid for writing a `pmc_stats`.
+/// be `NULL` or valid for reading and writing its `struct_size` bytes.
 #[no_mangle]
 pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_stats) -> PmcStatus {
     status_boundary(|| {
@@ -394,9 +439,41 @@ pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_sta
         if out.is_null() {
             return Err(Failure::null("out"));
         }
-        // SAFETY: `out` is non-null and writable per the contract;
-        // `write_unaligned` tolerates any alignment.
-        unsafe { out.write_unaligned(pmc_stats::from(&m.stats)) };
+        // SAFETY: `out` is non-null and readable for its first 8 bytes per
+        // the contract.
+        unsafe {
+            struct_size::check(
+                out.cast_const(),
+                "pmc_stats",
+                struct_size::PMC_STATS_SIZE_V1,
+            )?
+        };
+        // SAFETY: `out` is writable for the version 1 size, just checked;
+        // the fields are written unaligned.
+        write_fields!(
+            pmc_stats,
+            out,
+            pmc_stats::from(&m.stats),
+            cells,
+            mc_triangles,
+            output_triangles,
+            output_points,
+            ambiguous_cells,
+            skipped_nonfinite_cells,
+            samples_evaluated,
+            split_points,
+            projection_failures,
+            faces_above_epsilon,
+            max_level,
+            effective_max_level,
+            mean_level,
+            budget_reached,
+            time_mc,
+            time_refine,
+            time_assemble,
+            time_normals,
+            time_total,
+        );
         Ok(())
     })
 }
@@ -405,8 +482,7 @@ pub unsafe extern "C" fn pmc_mesh_stats(mesh: *const pmc_mesh, out: *mut pmc_sta
 /// patch was unsound (two split points on one spot, a non-manifold edge,
 /// or a patch turned inside out), or, with the Classic topology, their
 /// table patch is not the trilinear interpolant's (see `cells_refined_on_faces_only` in the
-/// README). 0 for a `NULL` mesh. Not in `pmc_stats`, whose layout is
-/// fixed.
+/// README). 0 for a `NULL` mesh. Not a field of `pmc_stats`.
 ///
 /// # Safety
 ///
@@ -421,8 +497,8 @@ pub unsafe extern "C" fn pmc_mesh_cells_refined_on_faces_only(mesh: *const pmc_m
 
 /// Cells where refinement stalled on a fold or neck of the ideal surface
 /// and that were meshed again on 4x4x4 sub-cells (see `cells_on_subcells`
-/// in the README). 0 for a `NULL` mesh and with refinement off. Not in
-/// `pmc_stats`, whose layout is fixed.
+/// in the README). 0 for a `NULL` mesh and with refinement off. Not a
+/// field of `pmc_stats`.
 ///
 /// # Safety
 ///
@@ -438,8 +514,7 @@ pub unsafe extern "C" fn pmc_mesh_cells_on_subcells(mesh: *const pmc_mesh) -> u6
 /// Marching Cubes polygons cut along other diagonals before refinement,
 /// because refinement could not bring a diagonal of the case table's onto
 /// the ideal surface (see `recut_polygons` in the README). 0 for a `NULL`
-/// mesh and with refinement off. Not in `pmc_stats`, whose layout is
-/// fixed.
+/// mesh and with refinement off. Not a field of `pmc_stats`.
 ///
 /// # Safety
 ///

@@ -34,6 +34,7 @@ mod mesh;
 mod options;
 mod panic;
 mod status;
+mod struct_size;
 mod version;
 mod volume;
 

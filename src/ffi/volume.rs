@@ -4,6 +4,7 @@ use std::ffi::c_void;
 
 use super::enums::{pmc_scalar_type, PmcScalarType};
 use super::panic::Failure;
+use super::struct_size;
 use crate::{Samples, Volume};
 
 /// A regular grid of samples in memory owned by the caller, borrowed for
@@ -19,9 +20,20 @@ use crate::{Samples, Volume};
 /// Every field is validated before any sample is read: an inconsistent
 /// volume is `PMC_STATUS_INVALID_ARGUMENT` (`PMC_STATUS_NULL_ARGUMENT` for
 /// `data == NULL`), never an out-of-bounds read.
+///
+/// Set `struct_size` to `sizeof(pmc_volume)` first (zero-initialise the
+/// struct, then set the fields), so that later versions of the library
+/// can append fields without breaking callers built against this header.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
 pub struct pmc_volume {
+    /// Size in bytes of the caller's struct: set it to
+    /// `sizeof(pmc_volume)`. No default: 0, or less than the size of the
+    /// first `pmc_volume` layout (128 bytes on 64-bit platforms), is
+    /// `PMC_STATUS_INVALID_ARGUMENT`, checked before any other field is
+    /// read. A larger value (a caller built against a later header) is
+    /// accepted; the library reads only the fields it knows.
+    pub struct_size: u64,
     /// First element of the samples; must be aligned for `scalar_type`.
     pub data: *const c_void,
     /// Number of elements (not bytes) readable from `data`. Every element
@@ -49,6 +61,24 @@ pub struct pmc_volume {
     pub spacing: [f64; 3],
 }
 
+/// The volume at `p`, after checking `p` (`PMC_STATUS_NULL_ARGUMENT` for
+/// `NULL`) and its `struct_size`, before reading any other field.
+///
+/// # Safety
+///
+/// `p` must be `NULL` or point to a `pmc_volume` readable for the
+/// `struct_size` bytes it declares (at least its first 8 bytes).
+pub(crate) unsafe fn volume_ref<'a>(p: *const pmc_volume) -> Result<&'a pmc_volume, Failure> {
+    if p.is_null() {
+        return Err(Failure::null("volume"));
+    }
+    // SAFETY: non-null, and readable for its first 8 bytes per the contract.
+    unsafe { struct_size::check(p, "pmc_volume", struct_size::PMC_VOLUME_SIZE_V1)? };
+    // SAFETY: readable for `struct_size` bytes, now known to cover this
+    // library's `pmc_volume`.
+    Ok(unsafe { &*p })
+}
+
 /// Builds a core volume over `v`'s samples, after checking the strides'
 /// signs and everything a slice needs (non-null, aligned data; a byte
 /// length that fits `isize`) and running [`Volume::validate`] (dims,
@@ -62,7 +92,8 @@ pub(crate) unsafe fn core_volume<'a>(
     v: &pmc_volume,
     index_offset: [i64; 3],
 ) -> Result<Volume<'a>, Failure> {
-    // A NULL pointer first, whatever else is wrong, as documented.
+    // A NULL pointer first, whatever else is wrong, as documented (the
+    // caller has checked `struct_size`, see [`volume_ref`]).
     if v.data.is_null() {
         return Err(Failure::null("volume->data"));
     }

@@ -92,6 +92,7 @@ static inline pmc_volume make_sphere(uint64_t n, pmc_scalar_type t, double scale
     double c = 0.5 * (double)(n - 1);
     void *buf = malloc((size_t)(n * n * n) * scalar_size(t));
     memset(&v, 0, sizeof v);
+    v.struct_size = sizeof v;
     for (k = 0; k < n; k++)
         for (j = 0; j < n; j++)
             for (i = 0; i < n; i++) {
@@ -125,7 +126,7 @@ static inline int check_mesh(const pmc_mesh *m, const pmc_volume *v, uint32_t ma
     const int64_t *t = pmc_mesh_triangles(m);
     const uint8_t *lv = pmc_mesh_triangle_levels(m);
     const float *nrm = pmc_mesh_normals(m);
-    pmc_stats s;
+    pmc_stats s = {.struct_size = sizeof(pmc_stats)};
     int ok = 1;
     if (pmc_mesh_stats(m, &s) != PMC_STATUS_OK) return 0;
     ok &= s.output_points == np && s.output_triangles == nt;

@@ -28,6 +28,7 @@ int main() {
             for (int i = 0; i < n; i++) data.push_back(std::sqrt(double((i - 5) * (i - 5) + (j - 6) * (j - 6) + (k - 5) * (k - 5))));
     pmc_volume v;
     std::memset(&v, 0, sizeof v);
+    v.struct_size = sizeof v;
     v.data = data.data();
     v.len = data.size();
     v.scalar_type = PMC_SCALAR_TYPE_F64;
@@ -50,6 +51,7 @@ int main() {
     CHECK(pmc_mesh_normals(m) != nullptr);
     CHECK(last == 1.0);
     pmc_stats s;
+    s.struct_size = sizeof s;
     CHECK(pmc_mesh_stats(m, &s) == PMC_STATUS_OK && s.output_points == pmc_mesh_point_count(m));
     pmc_mesh_free(m);
     pmc_options_free(o);

@@ -310,7 +310,7 @@ static void test_extract_errors(void) {
 }
 
 static void test_null_accessors(void) {
-    pmc_stats s;
+    pmc_stats s = {.struct_size = sizeof(pmc_stats)};
     pmc_volume v = make_sphere(6, PMC_SCALAR_TYPE_U8, 1.0);
     pmc_mesh *m = NULL;
     CHECK(pmc_mesh_point_count(NULL) == 0);

@@ -22,18 +22,26 @@ static pmc_mesh *extract(const pmc_volume *v, double iso, const pmc_options *o) 
 
 static void test_layout(void) {
     /* Pinned ABI: the Rust tests (tests/c_api.rs) check the same numbers. */
-    CHECK(sizeof(pmc_volume) == 120);
-    CHECK(offsetof(pmc_volume, len) == 8);
-    CHECK(offsetof(pmc_volume, scalar_type) == 16);
-    CHECK(offsetof(pmc_volume, dims) == 24);
-    CHECK(offsetof(pmc_volume, strides) == 48);
-    CHECK(offsetof(pmc_volume, origin) == 72);
-    CHECK(offsetof(pmc_volume, spacing) == 96);
-    CHECK(sizeof(pmc_stats) == 144);
-    CHECK(offsetof(pmc_stats, max_level) == 80);
-    CHECK(offsetof(pmc_stats, mean_level) == 88);
-    CHECK(offsetof(pmc_stats, budget_reached) == 96);
-    CHECK(offsetof(pmc_stats, time_total) == 136);
+    CHECK(sizeof(pmc_volume) == 128);
+    CHECK(offsetof(pmc_volume, struct_size) == 0);
+    CHECK(offsetof(pmc_volume, data) == 8);
+    CHECK(offsetof(pmc_volume, len) == 16);
+    CHECK(offsetof(pmc_volume, scalar_type) == 24);
+    CHECK(offsetof(pmc_volume, dims) == 32);
+    CHECK(offsetof(pmc_volume, strides) == 56);
+    CHECK(offsetof(pmc_volume, origin) == 80);
+    CHECK(offsetof(pmc_volume, spacing) == 104);
+    CHECK(sizeof(pmc_stats) == 152);
+    CHECK(offsetof(pmc_stats, struct_size) == 0);
+    CHECK(offsetof(pmc_stats, cells) == 8);
+    CHECK(offsetof(pmc_stats, max_level) == 88);
+    CHECK(offsetof(pmc_stats, mean_level) == 96);
+    CHECK(offsetof(pmc_stats, budget_reached) == 104);
+    CHECK(offsetof(pmc_stats, time_total) == 144);
+    CHECK(sizeof(pmc_distance) == 48);
+    CHECK(offsetof(pmc_distance, struct_size) == 0);
+    CHECK(offsetof(pmc_distance, max) == 8);
+    CHECK(offsetof(pmc_distance, unresolved) == 40);
     CHECK(sizeof(pmc_status) == 4 && sizeof(pmc_scalar_type) == 4);
     CHECK(PMC_STATUS_OK == 0 && PMC_STATUS_NULL_ARGUMENT == 1 && PMC_STATUS_INVALID_ARGUMENT == 2 &&
           PMC_STATUS_ABORTED == 3 && PMC_STATUS_OUT_OF_MEMORY == 4 && PMC_STATUS_INTERNAL_ERROR == 5);
@@ -49,7 +57,7 @@ static void test_layout(void) {
 static void test_sphere(void) {
     pmc_volume v = make_sphere(N, PMC_SCALAR_TYPE_F32, 1.0);
     pmc_mesh *m = extract(&v, RADIUS, NULL);
-    pmc_stats s;
+    pmc_stats s = {.struct_size = sizeof(pmc_stats)};
     double vol, exact = 4.0 / 3.0 * PI * RADIUS * RADIUS * RADIUS;
     uint64_t i, np = pmc_mesh_point_count(m);
     const double *p = pmc_mesh_points(m);
@@ -187,7 +195,7 @@ static void test_strides(void) {
     b = extract(&w, 4.2, NULL);
     CHECK(meshes_equal(a, b));
     {
-        pmc_stats s;
+        pmc_stats s = {.struct_size = sizeof(pmc_stats)};
         CHECK_STATUS(pmc_mesh_stats(b, &s), PMC_STATUS_OK);
         CHECK(s.skipped_nonfinite_cells == 0);
     }
@@ -269,7 +277,7 @@ static void test_options_effects(void) {
     pmc_volume v = make_sphere(16, PMC_SCALAR_TYPE_F64, 1.0);
     pmc_options *o = pmc_options_new();
     pmc_mesh *def = extract(&v, 5.3, o), *m;
-    pmc_stats s, sd;
+    pmc_stats s = {.struct_size = sizeof(pmc_stats)}, sd = {.struct_size = sizeof(pmc_stats)};
     pmc_rule r;
     uint32_t th;
 
@@ -437,7 +445,7 @@ static void test_options_effects(void) {
 static void test_nonfinite_samples(void) {
     pmc_volume v = make_sphere(12, PMC_SCALAR_TYPE_F32, 1.0);
     pmc_mesh *m;
-    pmc_stats s;
+    pmc_stats s = {.struct_size = sizeof(pmc_stats)};
     ((float *)v.data)[5 + 12 * (5 + 12 * 1)] = NAN;
     ((float *)v.data)[6 + 12 * (6 + 12 * 6)] = INFINITY;
     m = extract(&v, 4.0, NULL);
@@ -451,6 +459,7 @@ static void test_nonfinite_samples(void) {
 /* An n x n x n float64 volume over `data`, unit spacing. */
 static void cube_volume(pmc_volume *v, double *data, int n) {
     memset(v, 0, sizeof *v);
+    v->struct_size = sizeof *v;
     v->data = data;
     v->len = (uint64_t)n * n * n;
     v->scalar_type = PMC_SCALAR_TYPE_F64;

@@ -70,7 +70,7 @@ int main(void) {
     CHECK_STATUS(pmc_extract(&big, 40.0, o, &m), PMC_STATUS_OK);
     CHECK(log.first == 0.0 && log.last == 1.0 && log.monotone && log.in_range);
     {
-        pmc_stats s;
+        pmc_stats s = {.struct_size = sizeof(pmc_stats)};
         CHECK_STATUS(pmc_mesh_stats(m, &s), PMC_STATUS_OK);
         CHECK(s.budget_reached == 1);
     }

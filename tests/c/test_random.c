@@ -36,6 +36,7 @@ int main(void) {
         void *buf;
 
         memset(&v, 0, sizeof v);
+        v.struct_size = sizeof v;
         v.scalar_type = t;
         for (a = 0; a < 3; a++) {
             v.dims[a] = 2 + rng_below(9);

@@ -149,7 +149,7 @@ static void round_trip(const char *path, const pmc_volume *v) {
         for (int refined = 0; refined < 2; refined++) {
             pmc_options *o = a.options_new();
             pmc_mesh *m = NULL;
-            pmc_stats st;
+            pmc_stats st = {.struct_size = sizeof(pmc_stats)};
             CHECK(a.set_threads(o, 2) == PMC_STATUS_OK);
             /* Plain Marching Cubes, or refinement (epsilon 0.001). */
             CHECK(a.set_epsilon(o, refined ? 0.001 : 0.0) == PMC_STATUS_OK);

@@ -23,6 +23,7 @@ int main(void) {
                 data[(k * N + j) * N + i] =
                     (float)((i - 4.5) * (i - 4.5) + (j - 4.5) * (j - 4.5) + (k - 4.5) * (k - 4.5));
     memset(&v, 0, sizeof v);
+    v.struct_size = sizeof v; /* first: see pmc_volume */
     v.data = data;
     v.len = N * N * N;
     v.scalar_type = PMC_SCALAR_TYPE_F32;
