@@ -698,3 +698,199 @@ fn last_error_is_per_thread_and_calls_are_thread_safe() {
     assert_eq!(last_error(), main_msg);
     unsafe { pmc_options_free(o) };
 }
+
+/// A struct of the C API followed by bytes it does not know: what a caller
+/// built against a later header, whose struct has more fields, passes.
+#[repr(C)]
+struct Bigger<T> {
+    known: T,
+    tail: [u8; 40],
+}
+
+const CANARY: u8 = 0xA5;
+
+/// `Bigger<T>` with every byte `CANARY` and `struct_size` (the first 8
+/// bytes) `size`.
+fn canaried<T>(size: u64) -> Box<Bigger<T>> {
+    let mut b = Box::new(std::mem::MaybeUninit::<Bigger<T>>::uninit());
+    unsafe {
+        ptr::write_bytes(b.as_mut_ptr().cast::<u8>(), CANARY, size_of::<Bigger<T>>());
+        b.as_mut_ptr().cast::<u64>().write(size);
+        Box::from_raw(Box::into_raw(b).cast::<Bigger<T>>())
+    }
+}
+
+fn bytes<T>(b: &Bigger<T>) -> &[u8] {
+    unsafe { std::slice::from_raw_parts((b as *const Bigger<T>).cast(), size_of::<Bigger<T>>()) }
+}
+
+/// `struct_size`, the first field of `pmc_volume`, `pmc_stats` and
+/// `pmc_distance`: 0 and sizes below the version 1 layout are rejected
+/// with a message naming the field, before anything else is read or
+/// written; a larger size is accepted, and output structs get every field
+/// they know written and no byte past them, nor `struct_size`.
+#[test]
+fn struct_size_is_checked_and_respected() {
+    let data = sphere(8, [3.5, 3.5, 3.0]);
+    let cv = c_volume(&data, [8, 8, 8]);
+    let want = c_extract(&cv, 2.5, ptr::null()).unwrap();
+    let mut want_stats = pmc_stats::default();
+    assert_eq!(
+        unsafe { pmc_mesh_stats(want.0, &mut want_stats) },
+        PmcStatus::Ok
+    );
+    assert_eq!(want_stats.struct_size, 152, "Default sets struct_size");
+    assert!(want_stats.output_triangles > 0);
+    let (np, nt) = unsafe {
+        (
+            pmc_mesh_point_count(want.0),
+            pmc_mesh_triangle_count(want.0),
+        )
+    };
+    let points = want
+        .slice(unsafe { pmc_mesh_points(want.0) }, 3 * np)
+        .to_vec();
+    let tris = want
+        .slice(unsafe { pmc_mesh_triangles(want.0) }, 3 * nt)
+        .to_vec();
+    let measure = |v: *const pmc_volume, iso: f64, out: *mut pmc_distance| unsafe {
+        pmc_measure_distance(v, iso, points.as_ptr(), np, tris.as_ptr(), nt, 1, out)
+    };
+    let mut want_dist = pmc_distance::default();
+    assert_eq!(measure(&cv, 2.5, &mut want_dist), PmcStatus::Ok);
+    assert_eq!(want_dist.struct_size, 48, "Default sets struct_size");
+    assert!(want_dist.samples > 0);
+
+    let rejected = |name: &str, size: u64| {
+        let msg = last_error();
+        assert!(
+            msg.starts_with(&format!("{name}.struct_size is {size}")),
+            "{msg}"
+        );
+        assert!(msg.contains(&format!("set it to sizeof({name})")), "{msg}");
+    };
+
+    // Input: pmc_volume.
+    for size in [0, 1, 127] {
+        let mut v = cv;
+        v.struct_size = size;
+        assert_eq!(
+            c_extract(&v, 2.5, ptr::null()).err(),
+            Some(PmcStatus::InvalidArgument)
+        );
+        rejected("pmc_volume", size);
+        // Before any other field: a NULL data is not what is reported.
+        v.data = ptr::null();
+        assert_eq!(
+            c_extract(&v, 2.5, ptr::null()).err(),
+            Some(PmcStatus::InvalidArgument)
+        );
+        rejected("pmc_volume", size);
+        let mut d = pmc_distance::default();
+        assert_eq!(measure(&v, 2.5, &mut d), PmcStatus::InvalidArgument);
+        rejected("pmc_volume", size);
+    }
+    // A larger volume (a later header's): its tail is not read.
+    let mut big = canaried::<pmc_volume>(size_of::<Bigger<pmc_volume>>() as u64);
+    big.known = pmc_volume {
+        struct_size: size_of::<Bigger<pmc_volume>>() as u64,
+        ..cv
+    };
+    let got = c_extract(&big.known, 2.5, ptr::null()).unwrap();
+    let mut got_stats = pmc_stats::default();
+    assert_eq!(
+        unsafe { pmc_mesh_stats(got.0, &mut got_stats) },
+        PmcStatus::Ok
+    );
+    assert_eq!(
+        (got_stats.output_triangles, got_stats.output_points),
+        (want_stats.output_triangles, want_stats.output_points)
+    );
+    let mut d = pmc_distance::default();
+    assert_eq!(measure(&big.known, 2.5, &mut d), PmcStatus::Ok);
+    assert_eq!(d, want_dist);
+
+    // Outputs, rejected: nothing written.
+    let v1_stats = size_of::<pmc_stats>() as u64;
+    for size in [0, 1, v1_stats - 1] {
+        let mut b = canaried::<pmc_stats>(size);
+        assert_eq!(
+            unsafe { pmc_mesh_stats(want.0, &mut b.known) },
+            PmcStatus::InvalidArgument
+        );
+        rejected("pmc_stats", size);
+        assert!(bytes(&b)[8..].iter().all(|&x| x == CANARY));
+        assert_eq!(b.known.struct_size, size);
+    }
+    let v1_dist = size_of::<pmc_distance>() as u64;
+    for size in [0, 1, v1_dist - 1] {
+        let mut b = canaried::<pmc_distance>(size);
+        assert_eq!(measure(&cv, 2.5, &mut b.known), PmcStatus::InvalidArgument);
+        rejected("pmc_distance", size);
+        assert!(bytes(&b)[8..].iter().all(|&x| x == CANARY));
+        assert_eq!(b.known.struct_size, size);
+        // Checked before the volume.
+        assert_eq!(
+            measure(ptr::null(), 2.5, &mut b.known),
+            PmcStatus::InvalidArgument
+        );
+        rejected("pmc_distance", size);
+    }
+
+    // Outputs of exactly the version 1 size, then larger: every field
+    // written, struct_size kept, no byte past the version 1 layout.
+    for size in [v1_stats, size_of::<Bigger<pmc_stats>>() as u64] {
+        let mut b = canaried::<pmc_stats>(size);
+        assert_eq!(
+            unsafe { pmc_mesh_stats(want.0, &mut b.known) },
+            PmcStatus::Ok
+        );
+        assert_eq!(b.known.struct_size, size);
+        assert_eq!(
+            pmc_stats {
+                struct_size: want_stats.struct_size,
+                ..b.known
+            },
+            want_stats
+        );
+        assert!(b.tail.iter().all(|&x| x == CANARY));
+    }
+    for size in [v1_dist, size_of::<Bigger<pmc_distance>>() as u64] {
+        let mut b = canaried::<pmc_distance>(size);
+        assert_eq!(measure(&cv, 2.5, &mut b.known), PmcStatus::Ok);
+        assert_eq!(b.known.struct_size, size);
+        assert_eq!(
+            pmc_distance {
+                struct_size: want_dist.struct_size,
+                ..b.known
+            },
+            want_dist
+        );
+        assert!(b.tail.iter().all(|&x| x == CANARY));
+        // A later failure zeroes the known fields, and only those.
+        let mut b = canaried::<pmc_distance>(size);
+        assert_eq!(
+            measure(&cv, f64::NAN, &mut b.known),
+            PmcStatus::InvalidArgument
+        );
+        assert_eq!(b.known.struct_size, size);
+        assert_eq!(
+            b.known,
+            pmc_distance {
+                struct_size: size,
+                ..pmc_distance::default()
+            }
+        );
+        assert!(b.tail.iter().all(|&x| x == CANARY));
+    }
+
+    // pmc_stats need not be aligned.
+    let mut buf = vec![CANARY; 1 + v1_stats as usize + 40];
+    let out = unsafe { buf.as_mut_ptr().add(1) };
+    unsafe { out.cast::<u64>().write_unaligned(v1_stats) };
+    assert_eq!(unsafe { pmc_mesh_stats(want.0, out.cast()) }, PmcStatus::Ok);
+    let s = unsafe { out.cast::<pmc_stats>().read_unaligned() };
+    assert_eq!(s, want_stats);
+    assert_eq!(buf[0], CANARY);
+    assert!(buf[1 + v1_stats as usize..].iter().all(|&x| x == CANARY));
+}

@@ -1042,6 +1042,14 @@ pub fn fuzz_c_api(data: &[u8]) {
             vol.strides[(extra % 3) as usize] = 0;
             expect = Some(2);
         }
+        14 => {
+            // A struct_size of 0 or below the first layout's (a caller
+            // built against an older header): rejected before any other
+            // field is read.
+            let size = std::mem::size_of::<ffi::pmc_volume>() as u64;
+            vol.struct_size = [0, 1, 8, size - 1][(extra % 4) as usize];
+            expect = Some(2);
+        }
         _ => {}
     }
     let iso = if hostile & 0x10 != 0 && hostile & 15 == 0 {

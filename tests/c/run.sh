@@ -95,7 +95,7 @@ NATIVE=(-lgcc_s -lutil -lrt -lpthread -lm -ldl)
 SHARED=(-L"$LIB_DIR" -lprecisemc -Wl,-rpath,"$LIB_DIR" -lm -pthread)
 STATIC=("$LIB_DIR/libprecisemc.a" "${NATIVE[@]}" -pthread)
 SAN=(-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
-PROGRAMS=(test_extract test_errors test_progress test_random test_robust test_executor)
+PROGRAMS=(test_extract test_errors test_progress test_random test_robust test_executor test_struct_size)
 
 build() { # build OUTPUT COMPILER FLAGS... (compile errors are test failures)
     local out=$1
