@@ -21,9 +21,9 @@
 #include <stdint.h>
 
 #define PMC_VERSION_MAJOR 0
-#define PMC_VERSION_MINOR 1
+#define PMC_VERSION_MINOR 2
 #define PMC_VERSION_PATCH 0
-#define PMC_VERSION_STRING "0.1.0"
+#define PMC_VERSION_STRING "0.2.0"
 
 /**
  * Highest value accepted by `pmc_options_set_max_level`.

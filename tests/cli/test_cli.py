@@ -15,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 import traceback
 
 import numpy as np
@@ -239,7 +240,11 @@ def help_and_version():
                    "--quiet", "--sample", "--version"):
         expect(option in r.stdout, f"{option} not in --help")
     r = ok("--version")
-    expect(re.match(r"precisemc \d+\.\d+\.\d+ \(VTK 9\.", r.stdout), r.stdout)
+    # The crate's version: the tool's build reads it from Cargo.toml.
+    with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "Cargo.toml"),
+              "rb") as f:
+        version = tomllib.load(f)["package"]["version"]
+    expect(r.stdout.startswith(f"precisemc {version} (VTK 9."), f"{r.stdout!r}, crate {version}")
 
 
 def sample_check(name):

@@ -62,7 +62,7 @@ def _build_consumer(tmp_path, name, package_args):
 @pytest.mark.skipif(_build_dir() is None or shutil.which("cmake") is None,
                     reason="no configured build/vtk")
 def test_cpp_consumers_find_the_package_installed_and_in_the_build_tree(tmp_path):
-    """find_package(PreciseMCVTK 0.1) and PreciseMC::FiltersPrecise work from
+    """find_package(PreciseMCVTK 0.2) and PreciseMC::FiltersPrecise work from
     an install prefix and from the build tree (whose package file once
     looked for the module's targets beside itself, where they were not)."""
     build = _build_dir()
