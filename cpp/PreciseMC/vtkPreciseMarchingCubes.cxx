@@ -49,6 +49,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -72,6 +73,17 @@ vtkStandardNewMacro(vtkPreciseMarchingCubes);
 // Helpers around the C API: owning handles, type mapping, progress.
 namespace
 {
+// VTK answers an output allocation that fails by throwing std::bad_alloc
+// on some paths and, on others, with an error and an array left short:
+// the second becomes the first, which RequestData() reports.
+void RequireLength(vtkIdType have, vtkIdType want)
+{
+  if (have != want)
+  {
+    throw std::bad_alloc();
+  }
+}
+
 // Ghost samples the cubic filters read around a piece. One is what the
 // piece's own cells need; the second gives the ghost cells next to the
 // piece their whole 4x4x4 neighbourhood, so they compute what the serial
@@ -616,6 +628,29 @@ const char* vtkPreciseMarchingCubes::GetNormalModeAsString()
 
 //------------------------------------------------------------------------------
 int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
+  vtkInformationVector** inputVector, vtkInformationVector* outputVector)
+{
+  // The library reports its own memory running out; the output's VTK
+  // arrays and vectors throw std::bad_alloc instead, which would abort the
+  // host application (a ParaView session) if it left this method.
+  try
+  {
+    return this->Contour(inputVector, outputVector);
+  }
+  catch (const std::bad_alloc&)
+  {
+    this->ResetStatistics();
+    if (vtkPolyData* output = vtkPolyData::GetData(outputVector))
+    {
+      output->Initialize();
+    }
+    vtkErrorMacro(<< "Out of memory while building the output; the output is empty.");
+    return 1;
+  }
+}
+
+//------------------------------------------------------------------------------
+int vtkPreciseMarchingCubes::Contour(
   vtkInformationVector** inputVector, vtkInformationVector* outputVector)
 {
   vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
@@ -1325,6 +1360,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   vtkNew<vtkPoints> newPts;
   newPts->SetDataType(doublePoints ? VTK_DOUBLE : VTK_FLOAT);
   newPts->SetNumberOfPoints(numPts);
+  RequireLength(newPts->GetNumberOfPoints(), numPts);
   float* floatPts = nullptr;
   double* doublePts = nullptr;
   if (newPts->GetDataType() == VTK_FLOAT)
@@ -1342,6 +1378,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     newNormals->SetName("Normals");
     newNormals->SetNumberOfComponents(3);
     newNormals->SetNumberOfTuples(numPts);
+    RequireLength(newNormals->GetNumberOfTuples(), numPts);
   }
   vtkSmartPointer<vtkFloatArray> newGradients;
   if (computeGradients)
@@ -1350,6 +1387,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     newGradients->SetName("Gradients");
     newGradients->SetNumberOfComponents(3);
     newGradients->SetNumberOfTuples(numPts);
+    RequireLength(newGradients->GetNumberOfTuples(), numPts);
   }
   vtkSmartPointer<vtkDataArray> newScalars;
   if (this->ComputeScalars)
@@ -1358,6 +1396,7 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
     newScalars->SetName(inScalars->GetName());
     newScalars->SetNumberOfComponents(1);
     newScalars->SetNumberOfTuples(numPts);
+    RequireLength(newScalars->GetNumberOfTuples(), numPts);
   }
   // The connectivity: one contour, kept whole and in the library's winding,
   // is the library's own triangle array, adopted without a copy (it is
@@ -1384,15 +1423,18 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
   else
   {
     connectivity->SetNumberOfValues(3 * numTris);
+    RequireLength(connectivity->GetNumberOfValues(), 3 * numTris);
   }
   vtkNew<vtkIdTypeArray> offsets;
   offsets->SetNumberOfValues(numTris + 1);
+  RequireLength(offsets->GetNumberOfValues(), numTris + 1);
   vtkSmartPointer<vtkUnsignedCharArray> levels;
   if (this->ComputeLevels)
   {
     levels = vtkSmartPointer<vtkUnsignedCharArray>::New();
     levels->SetName("RefinementLevel");
     levels->SetNumberOfTuples(numTris);
+    RequireLength(levels->GetNumberOfTuples(), numTris);
   }
   // Global index coordinates of all output points, for InterpolateAttributes.
   std::vector<double> indexPoints;
@@ -1906,4 +1948,20 @@ void vtkPreciseMarchingCubes::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "BudgetReached: " << (this->BudgetReached ? "true" : "false") << "\n";
   os << indent << "ExecutionTime: " << this->ExecutionTime << "\n";
   os << indent << "NumberOfExecutions: " << this->NumberOfExecutions << "\n";
+  // The piece state RequestUpdateExtent() left for RequestData().
+  os << indent << "ContourExtent: ";
+  if (this->HasContourExtent)
+  {
+    for (int i = 0; i < 6; ++i)
+    {
+      os << this->ContourExtent[i] << (i < 5 ? " " : "");
+    }
+    os << (this->ContourWholeUnknown ? " (whole extent unknown)" : "") << "\n";
+  }
+  else
+  {
+    os << "(none)\n";
+  }
+  os << indent << "ContourPiece: " << this->ContourPiece << " of " << this->ContourPieces << "\n";
+  os << indent << "WholeInputShare: " << this->WholeInputShare << "\n";
 }

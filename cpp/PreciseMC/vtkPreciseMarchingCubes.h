@@ -664,6 +664,10 @@ protected:
   int WholeInputShare;
 
 private:
+  // RequestData() without its guard against VTK's out-of-memory
+  // exceptions.
+  int Contour(vtkInformationVector** inputVector, vtkInformationVector* outputVector);
+
   vtkPreciseMarchingCubes(const vtkPreciseMarchingCubes&) = delete;
   void operator=(const vtkPreciseMarchingCubes&) = delete;
 };
