@@ -46,6 +46,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <exception>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -267,16 +268,26 @@ int ShiftedIndex(int i, int d)
 // counter with them.
 void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
 {
+  // No C++ exception may leave this function: it is called from the
+  // library's (Rust) frames, where one would abort the process. Where
+  // vtkSMPTools throws (std::bad_alloc), the tasks it did not run are left
+  // undone, which the library reports as an executor error.
   const int workers = vtkSMPTools::GetEstimatedNumberOfThreads();
   if (count < 2 || workers < 2 || std::string(vtkSMPTools::GetBackend()) != "STDThread")
   {
-    vtkSMPTools::For(0, static_cast<vtkIdType>(count), 1,
-      [task, taskData](vtkIdType b, vtkIdType e) {
-        for (vtkIdType i = b; i < e; ++i)
-        {
-          task(taskData, static_cast<uint64_t>(i));
-        }
-      });
+    try
+    {
+      vtkSMPTools::For(0, static_cast<vtkIdType>(count), 1,
+        [task, taskData](vtkIdType b, vtkIdType e) {
+          for (vtkIdType i = b; i < e; ++i)
+          {
+            task(taskData, static_cast<uint64_t>(i));
+          }
+        });
+    }
+    catch (...)
+    {
+    }
     return;
   }
   std::atomic<uint64_t> next(1);
@@ -292,13 +303,20 @@ void SMPExecutor(void*, uint64_t count, pmc_task_fn task, void* taskData)
   try
   {
     helper = std::thread([&drain, others]() {
-      vtkSMPTools::For(0, others, 1, [&drain](vtkIdType, vtkIdType) { drain(); });
+      try
+      {
+        vtkSMPTools::For(0, others, 1, [&drain](vtkIdType, vtkIdType) { drain(); });
+      }
+      catch (...)
+      {
+        // The calling thread drains what is left.
+      }
     });
   }
-  catch (const std::system_error&)
+  catch (...)
   {
-    // No thread to be had: the calling thread runs every task (nothing
-    // must escape into the library's frames).
+    // No thread to be had (std::system_error, std::bad_alloc): the calling
+    // thread runs every task.
   }
   task(taskData, 0);
   drain();
@@ -356,13 +374,26 @@ struct ProgressState
   vtkPreciseMarchingCubes* Self;
   double Base;
   double Span;
+  // What an observer of the progress event threw: kept, the extraction
+  // stopped, and rethrown once pmc_extract has returned (an exception
+  // must not unwind through the library's frames, where it would abort
+  // the process).
+  std::exception_ptr Thrown;
 };
 
 // Called by pmc_extract on the calling thread; a non-zero return aborts.
 int ProgressCallback(void* userData, double fraction)
 {
   ProgressState* state = static_cast<ProgressState*>(userData);
-  state->Self->UpdateProgress(state->Base + state->Span * fraction);
+  try
+  {
+    state->Self->UpdateProgress(state->Base + state->Span * fraction);
+  }
+  catch (...)
+  {
+    state->Thrown = std::current_exception();
+    return 1;
+  }
   return state->Self->GetAbortExecute() ? 1 : 0;
 }
 
@@ -632,20 +663,34 @@ int vtkPreciseMarchingCubes::RequestData(vtkInformation* vtkNotUsed(request),
 {
   // The library reports its own memory running out; the output's VTK
   // arrays and vectors throw std::bad_alloc instead, which would abort the
-  // host application (a ParaView session) if it left this method.
+  // host application (a ParaView session) if it left this method. An
+  // exception of a progress observer (see ProgressCallback) is reported
+  // here too: thrown on through VTK's executive, it would leave the
+  // pipeline unable to update again.
+  const auto fail = [this, outputVector](const std::string& why) {
+    this->ResetStatistics();
+    if (vtkPolyData* output = vtkPolyData::GetData(outputVector))
+    {
+      output->Initialize();
+    }
+    vtkErrorMacro(<< why << "; the output is empty.");
+    return 1;
+  };
   try
   {
     return this->Contour(inputVector, outputVector);
   }
   catch (const std::bad_alloc&)
   {
-    this->ResetStatistics();
-    if (vtkPolyData* output = vtkPolyData::GetData(outputVector))
-    {
-      output->Initialize();
-    }
-    vtkErrorMacro(<< "Out of memory while building the output; the output is empty.");
-    return 1;
+    return fail("Out of memory while building the output");
+  }
+  catch (const std::exception& e)
+  {
+    return fail(std::string("An exception stopped the run: ") + e.what());
+  }
+  catch (...)
+  {
+    return fail("An exception of unknown type stopped the run");
   }
 }
 
@@ -1170,7 +1215,7 @@ int vtkPreciseMarchingCubes::Contour(
   const bool libraryNormals = computeNormals ||
     (computeGradients && this->NormalMode == NORMALS_CENTRAL_DIFFERENCE);
   const int64_t indexOffset[3] = { sampleExtent[0], sampleExtent[2], sampleExtent[4] };
-  ProgressState progress = { this, 0.0, 1.0 };
+  ProgressState progress = { this, 0.0, 1.0, nullptr };
   pmc_status status = PMC_STATUS_OK;
   const char* failed = nullptr;
   if ((status = pmc_options_set_epsilon(options.get(), this->Epsilon)) != PMC_STATUS_OK)
@@ -1258,6 +1303,11 @@ int vtkPreciseMarchingCubes::Contour(
     pmc_mesh* raw = nullptr;
     status = pmc_extract(&volume, values[c], options.get(), &raw);
     MeshPtr mesh(raw);
+    if (progress.Thrown)
+    {
+      // Reported by RequestData().
+      std::rethrow_exception(progress.Thrown);
+    }
     if (status == PMC_STATUS_ABORTED || (status != PMC_STATUS_OK && this->GetAbortExecute()))
     {
       vtkDebugMacro(<< "Aborted");
@@ -1412,6 +1462,7 @@ int vtkPreciseMarchingCubes::Contour(
     {
       pmc_buffer_free(taken);
       vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[0]);
+      this->ResetStatistics();
       output->Initialize();
       return 1;
     }
@@ -1493,6 +1544,7 @@ int vtkPreciseMarchingCubes::Contour(
       (computeNormals && np > 0 && !normals) || (computeGradients && np > 0 && !gradients))
     {
       vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
+      this->ResetStatistics();
       output->Initialize();
       return 1;
     }

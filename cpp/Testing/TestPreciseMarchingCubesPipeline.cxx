@@ -20,6 +20,8 @@
 #include "vtkSMPTools.h"
 
 #include <cstdlib>
+#include <new>
+#include <stdexcept>
 #include <sstream>
 
 namespace
@@ -52,6 +54,29 @@ public:
   }
   bool Enabled = true;
   int Calls = 0;
+};
+
+// Throws from the progress event once it reports progress: std::bad_alloc
+// (as an observer that runs out of memory) or another exception.
+class ThrowOnProgress : public vtkCommand
+{
+public:
+  static ThrowOnProgress* New() { return new ThrowOnProgress; }
+  void Execute(vtkObject*, unsigned long, void* callData) override
+  {
+    const double progress = callData ? *static_cast<double*>(callData) : 0.0;
+    if (progress > 0.0 && progress < 1.0)
+    {
+      ++this->Throws;
+      if (this->OutOfMemory)
+      {
+        throw std::bad_alloc();
+      }
+      throw std::runtime_error("observer failed");
+    }
+  }
+  bool OutOfMemory = true;
+  int Throws = 0;
 };
 
 } // anonymous namespace
@@ -130,6 +155,42 @@ int main(int, char*[])
   pmc->Modified();
   pmc->Update();
   Check(pmc->GetOutput()->GetNumberOfPolys() > 0, "the filter runs again after an abort");
+
+  // A progress observer is called inside the library's extraction (Rust
+  // frames, where an exception would abort the process): its exception
+  // stops the run there and is reported as an error with an empty output
+  // (thrown on through VTK's executive, it would leave the pipeline unable
+  // to update again).
+  for (const bool outOfMemory : { true, false })
+  {
+    vtkNew<ThrowOnProgress> thrower;
+    thrower->OutOfMemory = outOfMemory;
+    tag = pmc->AddObserver(vtkCommand::ProgressEvent, thrower);
+    errors->Reset();
+    pmc->SetNumberOfThreads(2);
+    pmc->Modified();
+    bool caught = false;
+    try
+    {
+      pmc->Update();
+    }
+    catch (...)
+    {
+      caught = true;
+    }
+    pmc->RemoveObserver(tag);
+    pmc->SetNumberOfThreads(0);
+    const char* expected = outOfMemory ? "Out of memory" : "observer failed";
+    Check(thrower->Throws == 1 && !caught && errors->Errors == 1 &&
+        errors->LastMessage.find(expected) != std::string::npos &&
+        pmc->GetOutput()->GetNumberOfPolys() == 0,
+      std::string(outOfMemory ? "std::bad_alloc" : "std::runtime_error") +
+        " from a progress observer: one throw, an error (" +
+        errors->LastMessage.substr(0, 120) + "), empty output");
+    pmc->Modified();
+    pmc->Update();
+    Check(pmc->GetOutput()->GetNumberOfPolys() > 0, "the filter runs again after the exception");
+  }
 
   // NaN epsilon: the C API rejects it.
   errors->Reset();
