@@ -14,6 +14,9 @@ function(precisemc_cargo_version manifest out_var)
       set(_in_package FALSE)
     elseif(_in_package AND _line MATCHES "^version *= *\"([0-9]+\\.[0-9]+\\.[0-9]+)[^\"]*\"")
       set(${out_var} "${CMAKE_MATCH_1}" PARENT_SCOPE)
+      # A new version in Cargo.toml reconfigures the build (SONAME,
+      # package version, the tool's --version).
+      set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${manifest}")
       return()
     endif()
   endforeach()

@@ -737,7 +737,7 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * `volume` as for `pmc_extract`; `points` must be readable for
  * `3 * point_count` doubles and `triangles` for `3 * triangle_count`
  * integers (either may be `NULL` when its count is 0); `out` must be
- * `NULL` or writable for its `struct_size` bytes.
+ * `NULL` or valid for reading and writing its `struct_size` bytes.
  */
 pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue, const double *points, uint64_t point_count, const int64_t *triangles, uint64_t triangle_count, uint32_t density, struct pmc_distance *out);
 

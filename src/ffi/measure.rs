@@ -107,7 +107,7 @@ unsafe fn write(out: *mut pmc_distance, d: pmc_distance) {
 /// `volume` as for `pmc_extract`; `points` must be readable for
 /// `3 * point_count` doubles and `triangles` for `3 * triangle_count`
 /// integers (either may be `NULL` when its count is 0); `out` must be
-/// `NULL` or writable for its `struct_size` bytes.
+/// `NULL` or valid for reading and writing its `struct_size` bytes.
 #[no_mangle]
 pub unsafe extern "C" fn pmc_measure_distance(
     volume: *const pmc_volume,
@@ -123,7 +123,7 @@ pub unsafe extern "C" fn pmc_measure_distance(
         if out.is_null() {
             return Err(Failure::null("out"));
         }
-        // SAFETY: `out` is non-null and writable for its `struct_size`
+        // SAFETY: `out` is non-null and readable and writable for its `struct_size`
         // bytes per the contract, hence readable for the first 8.
         unsafe {
             struct_size::check(

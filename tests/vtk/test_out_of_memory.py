@@ -44,7 +44,11 @@ def run_limited(limit_bytes):
     env["PYTHONPATH"] = os.pathsep.join([package_root] + sys.path)
 
     def limit():
-        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+        # The soft limit only: the hard one may already be finite.
+        if limit_bytes != resource.RLIM_INFINITY:
+            hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+            soft = limit_bytes if hard == resource.RLIM_INFINITY else min(limit_bytes, hard)
+            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
     r = subprocess.run([sys.executable, "-c", CHILD], env=env, preexec_fn=limit,
                        capture_output=True, text=True, timeout=300)
