@@ -336,8 +336,10 @@ typedef struct pmc_volume {
      * `sizeof(pmc_volume)`. No default: 0, or less than the size of the
      * first `pmc_volume` layout (128 bytes on 64-bit platforms), is
      * `PMC_STATUS_INVALID_ARGUMENT`, checked before any other field is
-     * read. A larger value (a caller built against a later header) is
-     * accepted; the library reads only the fields it knows.
+     * read. A larger value up to 65536 (a caller built against a later
+     * header) is accepted; the library reads only the fields it knows.
+     * Above 65536 it is rejected (likely a pointer: a caller built
+     * against a header without `struct_size`).
      */
     uint64_t struct_size;
     /**
@@ -394,9 +396,9 @@ typedef struct pmc_distance {
      * `sizeof(pmc_distance)` and never written by the library. No
      * default: 0, or less than the size of the first `pmc_distance`
      * layout (48 bytes), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
-     * written. A larger value (a caller built against a later header) is
-     * accepted: the library writes the fields it knows and no byte past
-     * them.
+     * written. A larger value up to 65536 (a caller built against a later
+     * header) is accepted: the library writes the fields it knows and no
+     * byte past them; above 65536 it is rejected (likely a pointer).
      */
     uint64_t struct_size;
     /**
@@ -435,9 +437,9 @@ typedef struct pmc_stats {
      * `sizeof(pmc_stats)` and never written by the library. No default:
      * 0, or less than the size of the first `pmc_stats` layout (152 bytes
      * on 64-bit platforms), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
-     * written. A larger value (a caller built against a later header) is
-     * accepted: the library writes the fields it knows and no byte past
-     * them.
+     * written. A larger value up to 65536 (a caller built against a later
+     * header) is accepted: the library writes the fields it knows and no
+     * byte past them; above 65536 it is rejected (likely a pointer).
      */
     uint64_t struct_size;
     /**

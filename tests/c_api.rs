@@ -770,8 +770,10 @@ fn struct_size_is_checked_and_respected() {
         assert!(msg.contains(&format!("set it to sizeof({name})")), "{msg}");
     };
 
-    // Input: pmc_volume.
-    for size in [0, 1, 127] {
+    // Input: pmc_volume. (Above 64 KiB: a pointer, from a caller built
+    // against a header without struct_size.)
+    let pointer_like = &cv as *const pmc_volume as u64;
+    for size in [0, 1, 127, (1 << 16) + 1, pointer_like] {
         let mut v = cv;
         v.struct_size = size;
         assert_eq!(
@@ -812,7 +814,7 @@ fn struct_size_is_checked_and_respected() {
 
     // Outputs, rejected: nothing written.
     let v1_stats = size_of::<pmc_stats>() as u64;
-    for size in [0, 1, v1_stats - 1] {
+    for size in [0, 1, v1_stats - 1, (1 << 16) + 1] {
         let mut b = canaried::<pmc_stats>(size);
         assert_eq!(
             unsafe { pmc_mesh_stats(want.0, &mut b.known) },
@@ -823,7 +825,7 @@ fn struct_size_is_checked_and_respected() {
         assert_eq!(b.known.struct_size, size);
     }
     let v1_dist = size_of::<pmc_distance>() as u64;
-    for size in [0, 1, v1_dist - 1] {
+    for size in [0, 1, v1_dist - 1, (1 << 16) + 1] {
         let mut b = canaried::<pmc_distance>(size);
         assert_eq!(measure(&cv, 2.5, &mut b.known), PmcStatus::InvalidArgument);
         rejected("pmc_distance", size);

@@ -19,9 +19,9 @@ pub struct pmc_distance {
     /// `sizeof(pmc_distance)` and never written by the library. No
     /// default: 0, or less than the size of the first `pmc_distance`
     /// layout (48 bytes), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
-    /// written. A larger value (a caller built against a later header) is
-    /// accepted: the library writes the fields it knows and no byte past
-    /// them.
+    /// written. A larger value up to 65536 (a caller built against a later
+    /// header) is accepted: the library writes the fields it knows and no
+    /// byte past them; above 65536 it is rejected (likely a pointer).
     pub struct_size: u64,
     /// Largest distance of any sample point.
     pub max: f64,

@@ -88,9 +88,9 @@ pub struct pmc_stats {
     /// `sizeof(pmc_stats)` and never written by the library. No default:
     /// 0, or less than the size of the first `pmc_stats` layout (152 bytes
     /// on 64-bit platforms), is `PMC_STATUS_INVALID_ARGUMENT` with nothing
-    /// written. A larger value (a caller built against a later header) is
-    /// accepted: the library writes the fields it knows and no byte past
-    /// them.
+    /// written. A larger value up to 65536 (a caller built against a later
+    /// header) is accepted: the library writes the fields it knows and no
+    /// byte past them; above 65536 it is rejected (likely a pointer).
     pub struct_size: u64,
     /// Cells in the volume, `(dims[0]-1)(dims[1]-1)(dims[2]-1)`.
     pub cells: u64,

@@ -36,11 +36,18 @@ pub(crate) const PMC_STATS_SIZE_V1: u64 = size_of::<pmc_stats>() as u64;
 /// Size in bytes of the version 1 `pmc_distance` (48).
 pub(crate) const PMC_DISTANCE_SIZE_V1: u64 = size_of::<pmc_distance>() as u64;
 
+/// The largest `struct_size` accepted (64 KiB, far beyond any layout
+/// these structs will have). A caller built against a header without
+/// `struct_size` (0.1) passes the struct's first pointer or count in its
+/// place, a larger number: rejected instead of taken for a later layout.
+pub(crate) const MAX_STRUCT_SIZE: u64 = 1 << 16;
+
 /// Reads the `struct_size` field (the first, a `uint64_t`) of the struct at
 /// `p`, with no alignment requirement, and checks it against `v1`, the
 /// size of the struct's first layout: 0 and anything below `v1` are
 /// `PMC_STATUS_INVALID_ARGUMENT` with a message that names the struct
-/// (`name`) and says what to set.
+/// (`name`) and says what to set; so is anything above
+/// [`MAX_STRUCT_SIZE`].
 ///
 /// # Safety
 ///
@@ -57,6 +64,13 @@ pub(crate) unsafe fn check<T>(p: *const T, name: &str, v1: u64) -> Result<(), Fa
         return Err(Failure::invalid(format!(
             "{name}.struct_size is {size}, smaller than the {v1} bytes of the smallest \
              {name} this library accepts; set it to sizeof({name}) before the call"
+        )));
+    }
+    if size > MAX_STRUCT_SIZE {
+        return Err(Failure::invalid(format!(
+            "{name}.struct_size is {size}, larger than any {name} ({MAX_STRUCT_SIZE} bytes \
+             at most; a caller built against a header without struct_size?); set it to \
+             sizeof({name}) before the call"
         )));
     }
     Ok(())

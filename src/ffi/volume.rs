@@ -31,8 +31,10 @@ pub struct pmc_volume {
     /// `sizeof(pmc_volume)`. No default: 0, or less than the size of the
     /// first `pmc_volume` layout (128 bytes on 64-bit platforms), is
     /// `PMC_STATUS_INVALID_ARGUMENT`, checked before any other field is
-    /// read. A larger value (a caller built against a later header) is
-    /// accepted; the library reads only the fields it knows.
+    /// read. A larger value up to 65536 (a caller built against a later
+    /// header) is accepted; the library reads only the fields it knows.
+    /// Above 65536 it is rejected (likely a pointer: a caller built
+    /// against a header without `struct_size`).
     pub struct_size: u64,
     /// First element of the samples; must be aligned for `scalar_type`.
     pub data: *const c_void,
