@@ -12,7 +12,7 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum Error {
     /// A dimension is below 2 (a volume needs at least one cell per axis).
-    #[error("dimension {axis} is {value}; every dimension must be at least 2")]
+    #[error("dimension {} is {value}; every dimension must be at least 2", Axis(*.axis))]
     DimensionTooSmall {
         /// Axis index (0 = x, 1 = y, 2 = z).
         axis: usize,
@@ -25,7 +25,8 @@ pub enum Error {
     DimensionOverflow([u64; 3]),
     /// A dimension is above [`crate::MAX_DIMENSION`] (2^40 samples).
     #[error(
-        "dimension {axis} is {value}; the limit is 2^40 = {limit} samples per axis",
+        "dimension {} is {value}; the limit is 2^40 = {limit} samples per axis",
+        Axis(*.axis),
         limit = crate::MAX_DIMENSION
     )]
     DimensionTooLarge {
@@ -37,8 +38,9 @@ pub enum Error {
     /// An index offset is outside `-2^31..=2^31` (see
     /// [`crate::MAX_INDEX_OFFSET`]).
     #[error(
-        "index offset {axis} is {value}; index offsets must lie in \
+        "index offset {} is {value}; index offsets must lie in \
          -{limit}..={limit} (2^31)",
+        Axis(*.axis),
         limit = crate::MAX_INDEX_OFFSET
     )]
     InvalidIndexOffset {
@@ -50,8 +52,9 @@ pub enum Error {
     /// The world coordinate of the volume's first or last sample along an
     /// axis, `origin + spacing * index`, is not finite (it overflows).
     #[error(
-        "the world coordinate {axis} of global index {index}, origin {} + \
+        "the world coordinate {} of global index {index}, origin {} + \
          spacing {} * {index}, is not finite",
+        Axis(*.axis),
         Number(*.origin),
         Number(*.spacing)
     )]
@@ -67,7 +70,7 @@ pub enum Error {
         spacing: f64,
     },
     /// A spacing is zero, negative or not finite.
-    #[error("spacing {axis} is {}; spacings must be finite and > 0", Number(*.value))]
+    #[error("spacing {} is {}; spacings must be finite and > 0", Axis(*.axis), Number(*.value))]
     InvalidSpacing {
         /// Axis index.
         axis: usize,
@@ -75,7 +78,7 @@ pub enum Error {
         value: f64,
     },
     /// An origin coordinate is not finite.
-    #[error("origin {axis} is {}; the origin must be finite", Number(*.value))]
+    #[error("origin {} is {}; the origin must be finite", Axis(*.axis), Number(*.value))]
     InvalidOrigin {
         /// Axis index.
         axis: usize,
@@ -154,6 +157,19 @@ pub enum Error {
         /// The number of points.
         points: usize,
     },
+}
+
+/// An axis in a message: its index and its name, `1 (y)`, so that a C
+/// caller's `dims[1]` and a VTK user's y axis are both recognised.
+pub(crate) struct Axis(pub usize);
+
+impl std::fmt::Display for Axis {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match ["x", "y", "z"].get(self.0) {
+            Some(name) => write!(f, "{} ({name})", self.0),
+            None => write!(f, "{}", self.0),
+        }
+    }
 }
 
 /// A number in a message: as Rust prints it, but in scientific notation

@@ -537,7 +537,7 @@ fn errors_map_to_statuses_with_messages() {
         Some(PmcStatus::InvalidArgument)
     );
     assert!(
-        last_error().contains("dimension 1 is 1"),
+        last_error().contains("dimension 1 (y) is 1"),
         "{}",
         last_error()
     );
@@ -569,8 +569,9 @@ fn errors_map_to_statuses_with_messages() {
         assert_eq!(
             last_error(),
             format!(
-                "invalid options: index offset {axis} is {value}; index offsets must lie in \
-                 -2147483648..=2147483648 (2^31) (pmc_options_set_index_offset)"
+                "invalid options: index offset {axis} ({}) is {value}; index offsets must lie \
+                 in -2147483648..=2147483648 (2^31) (pmc_options_set_index_offset)",
+                ["x", "y", "z"][axis]
             )
         );
     }
@@ -687,7 +688,7 @@ fn last_error_is_per_thread_and_calls_are_thread_safe() {
                         c_extract(&bad, 6.0, shared.1).err(),
                         Some(PmcStatus::InvalidArgument)
                     );
-                    assert!(last_error().contains("spacing 2 is -1"));
+                    assert!(last_error().contains("spacing 2 (z) is -1"));
                 }
                 c_extract(cv, 6.0, shared.1)
                     .unwrap()

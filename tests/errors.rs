@@ -189,8 +189,9 @@ fn dimensions_above_the_cap_name_it() {
         assert_eq!(
             e.to_string(),
             format!(
-                "dimension {axis} is 1099511627777; the limit is 2^40 = 1099511627776 \
-                 samples per axis"
+                "dimension {axis} ({}) is 1099511627777; the limit is 2^40 = 1099511627776 \
+                 samples per axis",
+                ["x", "y", "z"][axis]
             )
         );
     }
@@ -243,8 +244,9 @@ fn index_offsets_beyond_2_31_are_rejected() {
             assert_eq!(
                 e.to_string(),
                 format!(
-                    "index offset {axis} is {value}; index offsets must lie in \
-                     -2147483648..=2147483648 (2^31)"
+                    "index offset {axis} ({}) is {value}; index offsets must lie in \
+                     -2147483648..=2147483648 (2^31)",
+                    ["x", "y", "z"][axis]
                 )
             );
         }
@@ -280,7 +282,7 @@ fn world_box_must_be_finite() {
         e.to_string(),
         // Numbers of many digits in scientific notation: the message fits
         // a C caller's buffer.
-        "the world coordinate 0 of global index 4, origin 1e308 + spacing 1e308 * 4, \
+        "the world coordinate 0 (x) of global index 4, origin 1e308 + spacing 1e308 * 4, \
          is not finite"
     );
     // The first index overflows too, with an index offset (negative here).

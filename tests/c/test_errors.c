@@ -283,13 +283,13 @@ static void test_extract_errors(void) {
         int64_t off[3] = {0, (int64_t)1 << 60, 0};
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
         EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT,
-                    "index offset 1 is 1152921504606846976");
+                    "index offset 1 (y) is 1152921504606846976");
         off[1] = INT64_MIN;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 (y) is");
         off[1] = PMC_MAX_INDEX_OFFSET + 1;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
-        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 is 2147483649");
+        EXPECT_FAIL(&good, 3.0, o, PMC_STATUS_INVALID_ARGUMENT, "index offset 1 (y) is 2147483649");
         off[1] = -PMC_MAX_INDEX_OFFSET;
         CHECK_STATUS(pmc_options_set_index_offset(o, off), PMC_STATUS_OK);
         CHECK_STATUS(pmc_extract(&good, 3.0, o, &m), PMC_STATUS_OK);
