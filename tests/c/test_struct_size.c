@@ -95,11 +95,14 @@ static pmc_status measure(const pmc_volume *v, double iso, pmc_distance *out) {
 }
 
 static void test_volume(void) {
-    const uint64_t bad[3] = {0, 1, sizeof(pmc_volume) - 1};
+    /* Above 64 KiB: what a caller built against a header without
+     * struct_size passes there (its data pointer). */
+    const uint64_t bad[5] = {0, 1, sizeof(pmc_volume) - 1, 65537,
+                             (uint64_t)(uintptr_t)&g_volume};
     big_volume big;
     pmc_mesh *m;
     int i;
-    for (i = 0; i < 3; i++) {
+    for (i = 0; i < 5; i++) {
         pmc_volume v = g_volume;
         pmc_distance d = {.struct_size = sizeof(pmc_distance)};
         v.struct_size = bad[i];
@@ -139,7 +142,7 @@ static void test_volume(void) {
 }
 
 static void test_stats(void) {
-    const uint64_t bad[3] = {0, 1, sizeof(pmc_stats) - 1};
+    const uint64_t bad[4] = {0, 1, sizeof(pmc_stats) - 1, 65537};
     const uint64_t good[2] = {sizeof(pmc_stats), sizeof(big_stats)};
     pmc_stats want = {.struct_size = sizeof(pmc_stats)};
     big_stats b;
@@ -147,7 +150,7 @@ static void test_stats(void) {
     CHECK_STATUS(pmc_mesh_stats(g_mesh, &want), PMC_STATUS_OK);
     CHECK(want.struct_size == sizeof want && want.output_triangles > 0);
     /* Rejected: nothing written. */
-    for (i = 0; i < 3; i++) {
+    for (i = 0; i < 4; i++) {
         memset(&b, CANARY, sizeof b);
         b.s.struct_size = bad[i];
         CHECK_STATUS(pmc_mesh_stats(g_mesh, &b.s), PMC_STATUS_INVALID_ARGUMENT);
@@ -169,7 +172,7 @@ static void test_stats(void) {
 }
 
 static void test_distance(void) {
-    const uint64_t bad[3] = {0, 1, sizeof(pmc_distance) - 1};
+    const uint64_t bad[4] = {0, 1, sizeof(pmc_distance) - 1, 65537};
     const uint64_t good[2] = {sizeof(pmc_distance), sizeof(big_distance)};
     pmc_distance want = {.struct_size = sizeof(pmc_distance)};
     big_distance b;
@@ -177,7 +180,7 @@ static void test_distance(void) {
     CHECK_STATUS(measure(&g_volume, 3.5, &want), PMC_STATUS_OK);
     CHECK(want.samples > 0 && want.max > 0.0);
     /* Rejected: nothing written; checked before the volume. */
-    for (i = 0; i < 3; i++) {
+    for (i = 0; i < 4; i++) {
         memset(&b, CANARY, sizeof b);
         b.d.struct_size = bad[i];
         CHECK_STATUS(measure(&g_volume, 3.5, &b.d), PMC_STATUS_INVALID_ARGUMENT);
