@@ -178,7 +178,12 @@ fn per_point<T: Scalar>(
     exec: Exec<'_>,
     out: impl Fn(DVec3) -> [f32; 3] + Sync + Send,
 ) -> Result<Vec<[f32; 3]>, Error> {
-    let mut result = recycle::VECTORS.take(index_points.len());
+    // (No kept vector for an empty mesh: it would hold one for nothing.)
+    let mut result = if index_points.is_empty() {
+        Vec::new()
+    } else {
+        recycle::VECTORS.take(index_points.len())
+    };
     reserve(&mut result, index_points.len())?;
     let g = &filter.grid;
     let dims = g.dims;
