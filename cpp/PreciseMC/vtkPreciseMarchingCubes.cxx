@@ -719,8 +719,11 @@ int vtkPreciseMarchingCubes::Contour(
   vtkDebugMacro(<< "Executing precise marching cubes");
 
   // Check the input: nothing to do on an empty image or without values.
-  vtkIdType numContours = this->ContourValues->GetNumberOfContours();
-  const double* values = this->ContourValues->GetValues();
+  // A copy: a progress observer may change the contour values while this
+  // runs, which reallocates the array the list holds.
+  const vtkIdType numContours = this->ContourValues->GetNumberOfContours();
+  const double* listed = this->ContourValues->GetValues();
+  const std::vector<double> values(listed, listed + (numContours > 0 ? numContours : 0));
   if (input->GetNumberOfPoints() < 1 || numContours < 1)
   {
     vtkDebugMacro(<< "Empty input or no contour values");
