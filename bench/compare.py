@@ -200,8 +200,8 @@ def measure(volume, iso, points, tris, cap, density):
     if out.unresolved:
         # Left out of max and mean: a figure over the rest would understate
         # the distance (a surface exists here, so none should be).
-        raise RuntimeError(f"pmc_measure_distance: {out.unresolved} of {out.samples} samples "
-                           "found no point of S_K")
+        raise RuntimeError(f"pmc_measure_distance: {out.unresolved} of "
+                           f"{out.unresolved + out.samples} samples found no point of S_K")
     return dict(max=out.max, mean=out.mean, samples=out.samples, measured_tris=len(sub),
                 stride=stride)
 
