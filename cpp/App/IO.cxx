@@ -1219,14 +1219,54 @@ struct PixelDataElement
   }
 };
 
+// The fields of a DICOM slice's header that lay its pixels out: VTK's
+// reader sizes the volume by its first slice's and copies each slice's
+// pixel data as that slice's header has it, so a slice laid out otherwise
+// (a 4x4 localizer among 16x16 slices) overran the volume or was read as
+// garbage.
+struct SliceLayout
+{
+  int Rows = 0;
+  int Columns = 0;
+  int BitsAllocated = 0;
+  int Samples = 0; // per pixel, as the reader counts them (3 for RGB)
+  int Signed = 0;  // Pixel Representation
+
+  // The name of the first field in which `other` differs, "" if none.
+  std::string Differs(const SliceLayout& other) const
+  {
+    const std::pair<const char*, bool> fields[] = { { "rows", this->Rows != other.Rows },
+      { "columns", this->Columns != other.Columns },
+      { "bits allocated", this->BitsAllocated != other.BitsAllocated },
+      { "samples per pixel", this->Samples != other.Samples },
+      { "pixel representation", this->Signed != other.Signed } };
+    for (const auto& f : fields)
+    {
+      if (f.second)
+      {
+        return f.first;
+      }
+    }
+    return "";
+  }
+  int Field(const std::string& name) const
+  {
+    return name == "rows" ? this->Rows
+      : name == "columns" ? this->Columns
+      : name == "bits allocated" ? this->BitsAllocated
+      : name == "samples per pixel" ? this->Samples
+      : this->Signed;
+  }
+};
+
 // What is wrong with the pixel data of a DICOM slice that VTK's reader
 // took into the series ("" if nothing): the reader copies what it needs
 // from the pixel data element without a check, so a file cut short within
 // it, or declaring fewer bytes than its rows x columns need, was read with
 // zeros or garbage for the rest, and compressed (encapsulated) data, which
 // it does not decode, as zeros or garbage. The file is parsed by VTK's own
-// parser.
-std::string PixelDataProblem(const std::string& file)
+// parser; `layout` gets its header's layout.
+std::string PixelDataProblem(const std::string& file, SliceLayout& layout)
 {
   DICOMAppHelper header;
   PixelDataElement pixels;
@@ -1243,6 +1283,11 @@ std::string PixelDataProblem(const std::string& file)
     parser.AddDICOMTagCallback(0x7FE0, 0x0010, DICOMParser::VR_OW, &take);
     parser.ReadHeader();
   }
+  layout.Rows = header.GetHeight();
+  layout.Columns = header.GetWidth();
+  layout.BitsAllocated = header.GetBitsAllocated();
+  layout.Samples = header.GetNumberOfComponents();
+  layout.Signed = header.GetPixelRepresentation();
   const unsigned long long need = static_cast<unsigned long long>(header.GetWidth()) *
     static_cast<unsigned long long>(header.GetHeight()) * header.GetNumberOfComponents() *
     static_cast<unsigned long long>(header.GetBitsAllocated() / 8);
@@ -1729,12 +1774,65 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     auto* dicom = vtkSliceListingDICOMReader::SafeDownCast(reader);
     TakeVTKErrors();
     reader->UpdateInformation();
-    for (const std::string& name : dicom->TakenFiles())
+    const std::vector<std::string> taken = dicom->TakenFiles();
+    std::vector<SliceLayout> layouts(taken.size());
+    for (size_t i = 0; i < taken.size(); ++i)
     {
-      const std::string why = PixelDataProblem(path + "/" + name);
+      const std::string why = PixelDataProblem(path + "/" + taken[i], layouts[i]);
       if (!why.empty())
       {
-        Unreadable(path, "its file '" + name + "' " + why);
+        Unreadable(path, "its file '" + taken[i] + "' " + why);
+      }
+    }
+    // Every slice laid out as the others: the layout most slices share
+    // (the first slice's on a tie) is the series', so the odd one out is
+    // named, whichever the reader sorted first.
+    size_t common = 0;
+    size_t commonCount = 0;
+    for (size_t i = 0; i < layouts.size(); ++i)
+    {
+      const size_t count = static_cast<size_t>(std::count_if(layouts.begin(), layouts.end(),
+        [&](const SliceLayout& l) { return l.Differs(layouts[i]).empty(); }));
+      if (count > commonCount)
+      {
+        common = i;
+        commonCount = count;
+      }
+    }
+    for (size_t i = 0; i < layouts.size(); ++i)
+    {
+      const std::string field = layouts[common].Differs(layouts[i]);
+      if (!field.empty())
+      {
+        Unreadable(path, "its file '" + taken[i] + "' has " + field + " " +
+            std::to_string(layouts[i].Field(field)) + " where the series' other slices (as '" +
+            taken[common] + "') have " + std::to_string(layouts[common].Field(field)) +
+            ": VTK's reader would read it into the volume as garbage (a slice of another "
+            "series, as a localizer, mixed in?)");
+      }
+    }
+    // The reader lays the volume out by the last file it parsed, of any
+    // series in the directory: a 3-slice 4x4 localizer it took as the
+    // series was read into 16x16 slices sized by another series' file.
+    vtkInformation* info = reader->GetOutputInformation(0);
+    if (!layouts.empty() && info &&
+      info->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+    {
+      int ext[6];
+      info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
+      SliceLayout volume = layouts[common];
+      volume.Columns = ext[1] - ext[0] + 1;
+      volume.Rows = ext[3] - ext[2] + 1;
+      volume.BitsAllocated = 8 * vtkDataArray::GetDataTypeSize(vtkImageData::GetScalarType(info));
+      volume.Samples = vtkImageData::GetNumberOfScalarComponents(info);
+      const std::string field = volume.Differs(layouts[common]);
+      if (!field.empty())
+      {
+        Unreadable(path, "its series' slices (as '" + taken[common] + "') have " + field + " " +
+            std::to_string(layouts[common].Field(field)) + " where VTK's reader lays the "
+            "volume out with " + std::to_string(volume.Field(field)) + ", from another file "
+            "in the directory: it would read them as garbage (several series of different "
+            "sizes in one directory?)");
       }
     }
     reader->Update();

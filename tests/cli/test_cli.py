@@ -465,6 +465,53 @@ def dicom_slice_cut_short_in_its_pixel_data_is_refused():
 
 
 @check
+def dicom_slice_laid_out_otherwise_is_refused():
+    """VTK's DICOM reader sizes the volume by its first slice and copies
+    each slice's pixels as that slice's own header lays them out: one 4x4
+    slice among 16x16 ones, or a 3-slice 4x4 localizer series mixed into
+    the directory, crashed the tool or was read as garbage. A slice whose
+    rows, columns, bits allocated or samples per pixel differ from the
+    other slices' is refused, naming the file and the field, and so are
+    slices laid out otherwise than the volume the reader makes of them."""
+    from dicom import write_series
+    d = fresh_dir("dicom-layout")
+    z, y, x = np.mgrid[0:12, 0:16, 0:16]
+    samples = (np.sqrt((x - 7.5) ** 2 + (y - 7.5) ** 2 + (z - 5.5) ** 2) * 100).astype(np.int16)
+    out = os.path.join(d, "o.vtp")
+    small = os.path.join(d, "small")
+    write_series(small, samples, (1, 1, 2))
+    write_series(os.path.join(d, "tmp"), np.ones((12, 4, 4), np.int16), (1, 1, 2))
+    shutil.copy(os.path.join(d, "tmp", "slice007.dcm"), os.path.join(small, "slice007.dcm"))
+    expect_error([small, "-o", out], "'slice007.dcm' has rows 4 where", outputs=[out], status=1)
+    # 8-bit pixels of the same size.
+    bits = os.path.join(d, "bits")
+    write_series(bits, samples, (1, 1, 2))
+    write_series(os.path.join(d, "tmp8"), np.ones((12, 16, 16), np.uint8), (1, 1, 2))
+    shutil.copy(os.path.join(d, "tmp8", "slice007.dcm"), os.path.join(bits, "slice007.dcm"))
+    expect_error([bits, "-o", out], "'slice007.dcm' has bits allocated 8", outputs=[out],
+                 status=1)
+    # A localizer series sorting first, named like the slices.
+    localizer = os.path.join(d, "localizer")
+    write_series(localizer, samples, (1, 1, 2))
+    write_series(os.path.join(d, "loc"), (np.arange(48).reshape(3, 4, 4) * 10).astype(np.int16),
+                 (1, 1, 2), series="1.2.826.0.1.3680043.9.7777.0", prefix="loc")
+    for i in (1, 2, 3):
+        shutil.copy(os.path.join(d, "loc", f"loc{i:03d}.dcm"),
+                    os.path.join(localizer, f"slice90{i}.dcm"))
+    # The reader takes the series sorting first (the localizer) but lays
+    # the volume out by the last file it parsed, in directory order: a
+    # 16x16 slice of the other series (refused), or a localizer slice (its
+    # 4x4x3 volume read as it is).
+    r = run(localizer, "-o", out)
+    expect(r.returncode in (0, 1), f"exit status {r.returncode}: {r.stderr!r}")
+    if r.returncode == 1:
+        expect_error([localizer, "-o", out], "have rows 4 where VTK's reader lays the volume out "
+                     "with 16", outputs=[out], status=1)
+    else:
+        expect("localizer: 4x4x3" in r.stdout, f"table header:\n{r.stdout}")
+
+
+@check
 def explicit_values_and_filter_options():
     d = fresh_dir("options")
     paths = write_inputs(d)
