@@ -226,8 +226,12 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   // it is data.
   size_t read = 0;
   const size_t headerLimit = size_t(1) << 20;
+  size_t controlAt = std::string::npos; // of the first control byte
+  unsigned char controlByte = 0;
+  std::string badSizes; // the first sizes value that is not all positive integers
   while (read < headerLimit && std::getline(in, line))
   {
+    const size_t lineStart = read;
     read += line.size() + 1;
     if (!line.empty() && line.back() == '\r')
     {
@@ -237,6 +241,19 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     {
       ended = true; // the end of the header
       break;
+    }
+    // A NUL (or another control byte) in the header: VTK's reader then
+    // never returned, or crashed. A header is text; tabs are allowed.
+    // Refused after the loop: without a blank line ending the header,
+    // these lines may be data, and that is the error to report.
+    const auto control = std::find_if(line.begin(), line.end(), [](char c) {
+      const unsigned char u = static_cast<unsigned char>(c);
+      return (u < 0x20 && u != '\t' && u != '\r') || u == 0x7f;
+    });
+    if (control != line.end() && controlAt == std::string::npos)
+    {
+      controlAt = lineStart + static_cast<size_t>(control - line.begin());
+      controlByte = static_cast<unsigned char>(*control);
     }
     std::string lower = line;
     std::transform(lower.begin(), lower.end(), lower.begin(),
@@ -287,9 +304,9 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
         char* rest = nullptr;
         errno = 0;
         long long n = std::strtoll(token.c_str(), &rest, 10);
-        if (token.empty() || *rest != '\0' || errno != 0 || n < 1)
+        if ((token.empty() || *rest != '\0' || errno != 0 || n < 1) && badSizes.empty())
         {
-          Unreadable(path, "the header's sizes (" + v + ") are not all positive integers");
+          badSizes = v; // refused after the loop, with the control bytes first
         }
         sizes.push_back(n);
       }
@@ -299,6 +316,18 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, "no blank line ends the header before the data (VTK's NRRD reader would "
                      "never stop reading it)");
+  }
+  if (controlAt != std::string::npos)
+  {
+    char code[8];
+    std::snprintf(code, sizeof(code), "0x%02x", controlByte);
+    Unreadable(path, std::string("its header holds a control byte (") + code + ") at byte " +
+        std::to_string(controlAt) + ", which VTK's NRRD reader hangs or crashes on: a header "
+        "is text");
+  }
+  if (!badSizes.empty())
+  {
+    Unreadable(path, "the header's sizes (" + badSizes + ") are not all positive integers");
   }
   if (ascii && !detached)
   {

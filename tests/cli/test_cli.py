@@ -1862,6 +1862,35 @@ def refuse_nrrd_headers(d, head, data, cases):
 
 
 @check
+def nrrd_header_with_a_control_byte_is_refused():
+    """A NUL byte in a NRRD header (at the end of a line, or at the start
+    of the next) made VTK 9.1's reader hang for ever or crash; so may other
+    control bytes. A header holding one (but tab, CR and LF) is refused,
+    in time, with the byte's place; a header with CRLF line ends reads."""
+    d = fresh_dir("nrrd-control")
+    out = os.path.join(d, "o.vtp")
+    data = np.zeros((2, 2, 12), dtype="u1")
+    data[1, 1, 5] = 9
+    head = b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 12 2 2\nencoding: raw\n\n"
+    for name, at, byte in (("end-of-line.nrrd", 20, b"\0"), ("start-of-line.nrrd", 9, b"\0"),
+                           ("escape.nrrd", 30, b"\x1b"), ("delete.nrrd", 40, b"\x7f")):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(head[:at] + byte + head[at:] + data.tobytes())
+        start = time.monotonic()
+        try:
+            expect_error([path, "-o", out], f"control byte (0x{byte[0]:02x}) at byte {at}",
+                         outputs=[out], status=1)
+        except (Failure, subprocess.TimeoutExpired) as e:
+            raise Failure(f"{name}: {e}")
+        expect(time.monotonic() - start < 60, f"{name}: took {time.monotonic() - start:.0f} s")
+    crlf = os.path.join(d, "crlf.nrrd")
+    with open(crlf, "wb") as f:
+        f.write(head.replace(b"\n", b"\r\n") + data.tobytes())
+    ok(crlf, "-q", "-v", "4", "-o", out)
+
+
+@check
 def nrrd_dimensions_vtk_crashes_on_are_refused():
     """VTK 9.1's NRRD reader reads volumes of dimension 3 (or 4, the first
     axis being vector components): a header without a dimension, with
