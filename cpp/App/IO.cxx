@@ -1583,6 +1583,68 @@ void CheckLegacySize(const std::string& path)
   }
 }
 
+// A NIfTI header whose datatype code is none that VTK's reader reads:
+// VTK 9.1's reader went on with an unknown code (5, 4096, 12345) and
+// crashed reading the data, or sized it from garbage. The codes are
+// NIfTI-1's that the reader maps to a VTK type (the types of a VTK array:
+// not binary, float128 or complex256). NIfTI-1 (348-byte header, the
+// code at byte 70) and NIfTI-2 (540, at byte 12), either byte order, read
+// through zlib so .nii.gz too; any other header is left to the reader.
+void CheckNiftiDatatype(const std::string& path)
+{
+  unsigned char head[72] = {};
+  gzFile gz = gzopen(path.c_str(), "rb");
+  if (!gz)
+  {
+    return;
+  }
+  const int got = gzread(gz, head, sizeof(head));
+  gzclose(gz);
+  if (got < static_cast<int>(sizeof(head)))
+  {
+    return; // the reader speaks of a short header
+  }
+  const auto number = [&head](int at, int bytes, bool swap) {
+    unsigned long v = 0;
+    for (int b = 0; b < bytes; ++b)
+    {
+      v |= static_cast<unsigned long>(head[at + (swap ? bytes - 1 - b : b)]) << (8 * b);
+    }
+    return v;
+  };
+  int datatypeAt = -1;
+  bool swap = false;
+  for (bool s : { false, true })
+  {
+    const unsigned long size = number(0, 4, s);
+    if (size == 348 || size == 540)
+    {
+      datatypeAt = size == 348 ? 70 : 12;
+      swap = s;
+    }
+  }
+  if (datatypeAt < 0)
+  {
+    return;
+  }
+  const int code = static_cast<int>(number(datatypeAt, 2, swap));
+  static const std::pair<int, const char*> readable[] = { { 2, "uint8" }, { 4, "int16" },
+    { 8, "int32" }, { 16, "float32" }, { 32, "complex64" }, { 64, "float64" }, { 128, "rgb24" },
+    { 256, "int8" }, { 512, "uint16" }, { 768, "uint32" }, { 1024, "int64" },
+    { 1280, "uint64" }, { 1792, "complex128" }, { 2304, "rgba32" } };
+  std::string known;
+  for (const auto& r : readable)
+  {
+    if (r.first == code)
+    {
+      return;
+    }
+    known += (known.empty() ? "" : ", ") + std::to_string(r.first) + " " + r.second;
+  }
+  Unreadable(path, "its header's datatype code " + std::to_string(code) +
+      " is none that VTK's NIfTI reader reads (" + known + ")");
+}
+
 // The reader for a file, after a cheap look at its header when the reader
 // offers one, so that a file of another format is reported as such.
 vtkSmartPointer<vtkAlgorithm> ReaderFor(const std::string& path, const std::string& ext)
@@ -1781,6 +1843,10 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     if (Extension(path) == ".vtk")
     {
       CheckLegacySize(path);
+    }
+    if (Extension(path) == ".nii" || Extension(path) == ".nii.gz")
+    {
+      CheckNiftiDatatype(path);
     }
     if (Extension(path) == ".vti")
     {

@@ -1561,6 +1561,38 @@ def nifti_scaling_is_applied():
 
 
 @check
+def nifti_datatype_vtk_cannot_read_is_refused():
+    """A NIfTI header whose datatype code is none of the NIfTI-1 types VTK
+    9.1's reader maps to a VTK type (5, 4096, 12345, 4097; binary 1) made
+    the reader crash reading the data, or size it from garbage. Refused
+    before the reader runs, naming the code, .nii and .nii.gz alike; the
+    codes it reads still read."""
+    import gzip
+    d = fresh_dir("nifti-datatype")
+    out = os.path.join(d, "o.vtp")
+    good = os.path.join(d, "good.nii")
+    w = vtkNIFTIImageWriter()
+    w.SetFileName(good)
+    w.SetInputData(blob_image())
+    w.Write()
+    with open(good, "rb") as f:
+        data = f.read()
+    expect(struct.unpack("<h", data[70:72])[0] == 16, "float32 datatype code at byte 70")
+    for code in (5, 4096, 12345, 4097, 1):
+        patched = data[:70] + struct.pack("<h", code) + data[72:]
+        for ext in ("nii", "nii.gz"):
+            path = os.path.join(d, f"code{code}.{ext}")
+            with (gzip.open if ext == "nii.gz" else open)(path, "wb") as f:
+                f.write(patched)
+            try:
+                expect_error([path, "-o", out], f"datatype code {code} is none", outputs=[out],
+                             status=1)
+            except Failure as e:
+                raise Failure(f"{path}: {e}")
+    ok(good, "-q", "-o", out)
+
+
+@check
 def nifti_scaling_beyond_float_leaves_no_finite_values():
     """double samples of 1e300 and more scaled by scl_slope 3e38 are all
     infinite:
