@@ -1405,6 +1405,43 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
   return "";
 }
 
+// A MetaImage header line whose key or value is 255 characters or longer
+// (a long Name or Comment): MetaIO copies them into buffers of 255 bytes,
+// and VTK 9.1's reader aborted ("buffer overflow detected"). A line
+// without '=' counts as a key. Up to ElementDataFile, the header's end.
+void CheckMetaImageHeaderLines(const std::string& path)
+{
+  const size_t limit = 254; // characters; the 255th byte ends the string
+  std::istringstream header(FileHead(path, 1 << 16));
+  std::string line;
+  int number = 0;
+  while (std::getline(header, line))
+  {
+    ++number;
+    const auto trim = [](std::string t) {
+      t.erase(0, t.find_first_not_of(" \t"));
+      t.erase(t.find_last_not_of(" \t\r") + 1);
+      return t;
+    };
+    const size_t eq = line.find('=');
+    const std::string key = trim(line.substr(0, eq));
+    const std::string value = eq == std::string::npos ? std::string() : trim(line.substr(eq + 1));
+    if (key.size() > limit || value.size() > limit)
+    {
+      const bool longKey = key.size() > limit;
+      Unreadable(path, "line " + std::to_string(number) + " of its header has a " +
+          (longKey ? "key" : "value") + " of " +
+          std::to_string(longKey ? key.size() : value.size()) + " characters" +
+          (longKey ? std::string() : " ('" + key + "')") + ", more than the " +
+          std::to_string(limit) + " VTK's MetaImage reader holds (it would abort)");
+    }
+    if (key == "ElementDataFile")
+    {
+      break; // the end of the header
+    }
+  }
+}
+
 // A compressed MetaImage whose data inflates to fewer bytes than its
 // DimSize declares: VTK 9.1's reader fills the rest with zeros and reports
 // nothing (a header claiming 1000^3 samples took 9 s to read a few KB of
@@ -1838,6 +1875,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     reader = ReaderFor(path, Extension(path));
     if (Extension(path) == ".mha" || Extension(path) == ".mhd")
     {
+      CheckMetaImageHeaderLines(path);
       CheckMetaImageCompressedSize(path);
     }
     if (Extension(path) == ".vtk")

@@ -1856,6 +1856,35 @@ def nrrd_headers_vtk_hangs_on_or_misreads_are_refused():
 
 
 @check
+def metaimage_header_field_longer_than_metaio_holds_is_refused():
+    """MetaIO copies a header line's key and value into buffers of 255
+    bytes: a Name or Comment of 255 characters or more (or a key as long)
+    aborted the tool inside VTK's reader ("buffer overflow detected").
+    Refused naming the line; 254 characters still read."""
+    d = fresh_dir("metaimage-long-field")
+    out = os.path.join(d, "o.vtp")
+    data = np.zeros(4 ** 3, dtype="u1")
+    data[21] = 9
+    head = b"ObjectType = Image\nNDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
+    for name, line, fragment in (
+            ("name.mha", b"Name = " + b"a" * 300, "line 5 of its header has a value of 300 "
+             "characters ('Name')"),
+            ("comment.mha", b"Comment = " + b"b" * 255, "a value of 255 characters ('Comment')"),
+            ("key.mha", b"c" * 255 + b" = 1", "line 5 of its header has a key of 255")):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(head + line + b"\nElementDataFile = LOCAL\n" + data.tobytes())
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{name}: {e}")
+    path = os.path.join(d, "254.mha")
+    with open(path, "wb") as f:
+        f.write(head + b"Name = " + b"a" * 254 + b"\nElementDataFile = LOCAL\n" + data.tobytes())
+    ok(path, "-q", "-o", out)
+
+
+@check
 def header_errors_stop_the_read():
     """A reader that rejects a header (VTK's MetaImage reader takes at most
     3 dimensions) must not be asked for the data anyway: it allocated an
