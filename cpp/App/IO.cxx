@@ -1442,6 +1442,99 @@ void CheckMetaImageHeaderLines(const std::string& path)
   }
 }
 
+// A MetaImage whose ElementDataFile is a pattern of slice file names
+// ("s%d.raw min max step", MetaIO's rules: min 1, max min + slices - 1,
+// the step (max - min) / slices without its own word, and with more than
+// four words the last three): a step of 0 made VTK 9.1's reader divide by
+// zero (SIGFPE), a negative one loop, and a range naming fewer files than
+// the volume has slices left the others zeros without a word.
+void CheckMetaImageDataFiles(const std::string& path)
+{
+  std::vector<long long> dims;
+  std::string dataFile;
+  for (const MetaField& field : MetaImageFields(path))
+  {
+    std::istringstream values(field.value);
+    if (field.key == "DimSize")
+    {
+      long long n;
+      while (values >> n)
+      {
+        dims.push_back(n);
+      }
+    }
+    else if (field.key == "ElementDataFile")
+    {
+      dataFile = field.value;
+    }
+  }
+  if (dims.empty() || dims.back() < 1 || dataFile.compare(0, 4, "LIST") == 0 ||
+    dataFile.find('%') == std::string::npos)
+  {
+    return;
+  }
+  std::vector<std::string> words;
+  {
+    std::istringstream split(dataFile);
+    std::string word;
+    while (split >> word)
+    {
+      words.push_back(word);
+    }
+  }
+  const long long slices = dims.back();
+  // MetaIO takes each number as (int)atof(word); beyond int it is undefined.
+  bool inRange = true;
+  const auto number = [&inRange](const std::string& word) {
+    const double v = std::atof(word.c_str());
+    inRange = inRange && std::fabs(v) < 1e9;
+    return inRange ? static_cast<long long>(v) : 0LL;
+  };
+  const size_t n = words.size();
+  long long first = 1;
+  long long last = slices;
+  long long step = 1;
+  if (n >= 2)
+  {
+    first = number(words[1]);
+    last = first + slices - 1;
+  }
+  if (n >= 3)
+  {
+    last = number(words[2]);
+    step = (last - first) / slices;
+  }
+  if (n >= 4)
+  {
+    step = number(words[3]);
+  }
+  if (n >= 5)
+  {
+    first = number(words[n - 3]);
+    last = number(words[n - 2]);
+    step = number(words[n - 1]);
+  }
+  const std::string pattern = "its ElementDataFile pattern (" + dataFile + ")";
+  if (!inRange)
+  {
+    Unreadable(path, pattern + " has a number beyond what VTK's MetaImage reader takes");
+  }
+  if (step <= 0)
+  {
+    Unreadable(path, pattern + " steps by " + std::to_string(step) +
+        (n == 3 ? " ((max - min) / slices, in integers)" : "") + ": VTK's MetaImage reader " +
+        (step == 0 ? "would divide by zero (a crash)" : "would never reach its end"));
+  }
+  const long long files = last < first ? 0 : (last - first) / step + 1;
+  if (files < slices)
+  {
+    Unreadable(path, pattern + " names " + std::to_string(files) + " file" +
+        (files == 1 ? "" : "s") + " (" + std::to_string(first) + " to " + std::to_string(last) +
+        " by " + std::to_string(step) + ") for " + std::to_string(slices) +
+        " slices: VTK's MetaImage reader would leave the others zeros");
+  }
+}
+
 // A compressed MetaImage whose data inflates to fewer bytes than its
 // DimSize declares: VTK 9.1's reader fills the rest with zeros and reports
 // nothing (a header claiming 1000^3 samples took 9 s to read a few KB of
@@ -1876,6 +1969,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     if (Extension(path) == ".mha" || Extension(path) == ".mhd")
     {
       CheckMetaImageHeaderLines(path);
+      CheckMetaImageDataFiles(path);
       CheckMetaImageCompressedSize(path);
     }
     if (Extension(path) == ".vtk")

@@ -1885,6 +1885,41 @@ def metaimage_header_field_longer_than_metaio_holds_is_refused():
 
 
 @check
+def metaimage_slice_file_pattern_that_misses_slices_is_refused():
+    """ElementDataFile = "s%d.raw min max step" names one file per slice:
+    a step of 0 (given, or (max - min) / slices in integers, as "1 2" on 2
+    slices) made VTK 9.1's reader divide by zero (SIGFPE), a negative one
+    names no file, and a range naming fewer files than slices left the
+    others zeros, exit status 0. Refused with the pattern; a pattern
+    naming every slice still reads."""
+    d = fresh_dir("metaimage-pattern")
+    out = os.path.join(d, "o.vtp")
+    for k in range(1, 5):
+        with open(os.path.join(d, f"s{k}.raw"), "wb") as f:
+            f.write(bytes([k, 0, 0, 9]))
+    for label, pattern, fragment in (
+            ("step0", "s%d.raw 1 2 0", "steps by 0: VTK's MetaImage reader would divide by zero"),
+            ("derived-step0", "s%d.raw 1 2", "steps by 0 ((max - min) / slices"),
+            ("negative", "s%d.raw 2 1 -1", "steps by -1"),
+            ("one-file", "s%d.raw 1 1 1", "names 1 file (1 to 1 by 1) for 2 slices"),
+            ("wide-step", "s%d.raw 1 2 5", "names 1 file (1 to 2 by 5) for 2 slices")):
+        path = os.path.join(d, label + ".mhd")
+        with open(path, "w") as f:
+            f.write("ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                    f"ElementDataFile = {pattern}\n")
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+    for pattern in ("s%d.raw 1 2 1", "s%d.raw 2 4 2", "s%d.raw 3", "s%d.raw"):
+        path = os.path.join(d, "good.mhd")
+        with open(path, "w") as f:
+            f.write("ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                    f"ElementDataFile = {pattern}\n")
+        ok(path, "-q", "-v", "4", "-o", out)
+
+
+@check
 def header_errors_stop_the_read():
     """A reader that rejects a header (VTK's MetaImage reader takes at most
     3 dimensions) must not be asked for the data anyway: it allocated an
