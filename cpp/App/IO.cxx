@@ -1442,16 +1442,102 @@ void CheckMetaImageHeaderLines(const std::string& path)
   }
 }
 
+// The slice files a MetaImage's "ElementDataFile = LIST [dimension]" names
+// on the lines after it, as VTK 9.1's reader (MetaIO) takes them: one a
+// line, each holding `dimension` axes (default and when 0 or beyond
+// NDims: all but the last), trailing spaces dropped, a line counting
+// only when a newline ends it. Fewer lines than files needed left the
+// other slices zeros without a word, and an empty line among them was
+// read before its start. Each file must hold a slice's bytes (not looked
+// at for compressed data).
+void CheckMetaImageFileList(const std::string& path, const std::vector<long long>& dims,
+  const std::string& dataFile, size_t listOffset, unsigned long long elementBytes,
+  bool compressed)
+{
+  std::istringstream words(dataFile);
+  std::string list;
+  std::string dimensionWord;
+  words >> list >> dimensionWord;
+  const long long ndims = static_cast<long long>(dims.size());
+  const double given = dimensionWord.empty() ? 0.0 : std::atof(dimensionWord.c_str());
+  if (!(given >= 0.0 && given < 1e9))
+  {
+    Unreadable(path, "its ElementDataFile (" + dataFile + ") gives a file dimension that is "
+        "not a count");
+  }
+  long long fileDims = static_cast<long long>(given);
+  if (fileDims == 0 || fileDims > ndims)
+  {
+    fileDims = ndims - 1;
+  }
+  unsigned long long files = 1;
+  unsigned long long fileBytes = elementBytes;
+  for (long long a = 0; a < ndims; ++a)
+  {
+    if (dims[a] < 1 || dims[a] > (1LL << 31))
+    {
+      return; // the declared-size check speaks of such headers
+    }
+    (a < fileDims ? fileBytes : files) *= static_cast<unsigned long long>(dims[a]);
+  }
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(listOffset));
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+  std::string line;
+  unsigned long long listed = 0;
+  for (; listed < files && std::getline(in, line) && !in.eof(); ++listed)
+  {
+    // MetaIO drops trailing spaces and unprintable bytes, never the first.
+    size_t keep = line.size();
+    while (keep > 1 && (std::isspace(static_cast<unsigned char>(line[keep - 1])) ||
+                         !std::isprint(static_cast<unsigned char>(line[keep - 1]))))
+    {
+      --keep;
+    }
+    line.resize(keep);
+    const std::string number = "line " + std::to_string(listed + 1) + " of its file list";
+    if (line.empty())
+    {
+      Unreadable(path, number + " is empty (VTK's MetaImage reader would read before its "
+                                "start)");
+    }
+    const std::string file = line[0] == '/' || dir.empty() ? line : dir + line;
+    struct stat st;
+    if (stat(file.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
+    {
+      Unreadable(path, number + " names '" + line + "', which is not a readable file");
+    }
+    if (!compressed && static_cast<unsigned long long>(st.st_size) < fileBytes)
+    {
+      Unreadable(path, number + " names '" + line + "', which holds " +
+          std::to_string(st.st_size) + " bytes, fewer than a slice's " +
+          std::to_string(fileBytes));
+    }
+  }
+  if (listed < files)
+  {
+    Unreadable(path, "its file list names " + std::to_string(listed) + " file" +
+        (listed == 1 ? "" : "s") + " (one a line, each line ended by a newline) for " +
+        std::to_string(files) + " slices: VTK's MetaImage reader would leave the others zeros");
+  }
+}
+
 // A MetaImage whose ElementDataFile is a pattern of slice file names
 // ("s%d.raw min max step", MetaIO's rules: min 1, max min + slices - 1,
 // the step (max - min) / slices without its own word, and with more than
 // four words the last three): a step of 0 made VTK 9.1's reader divide by
 // zero (SIGFPE), a negative one loop, and a range naming fewer files than
 // the volume has slices left the others zeros without a word.
+// A LIST of files is checked as CheckMetaImageFileList says.
 void CheckMetaImageDataFiles(const std::string& path)
 {
   std::vector<long long> dims;
   std::string dataFile;
+  size_t listOffset = 0;
+  unsigned long long elementBytes = 0;
+  unsigned long long channels = 1;
+  bool compressed = false;
   for (const MetaField& field : MetaImageFields(path))
   {
     std::istringstream values(field.value);
@@ -1463,13 +1549,39 @@ void CheckMetaImageDataFiles(const std::string& path)
         dims.push_back(n);
       }
     }
+    else if (field.key == "ElementNumberOfChannels")
+    {
+      values >> channels;
+    }
+    else if (field.key == "CompressedData")
+    {
+      compressed = field.value == "True" || field.value == "true";
+    }
+    else if (field.key == "ElementType")
+    {
+      static const std::pair<const char*, int> sizes[] = { { "MET_CHAR", 1 }, { "MET_UCHAR", 1 },
+        { "MET_SHORT", 2 }, { "MET_USHORT", 2 }, { "MET_INT", 4 }, { "MET_UINT", 4 },
+        { "MET_FLOAT", 4 }, { "MET_LONG_LONG", 8 }, { "MET_ULONG_LONG", 8 },
+        { "MET_DOUBLE", 8 } };
+      for (const auto& s : sizes)
+      {
+        elementBytes = field.value == s.first ? s.second : elementBytes;
+      }
+    }
     else if (field.key == "ElementDataFile")
     {
       dataFile = field.value;
+      listOffset = field.end;
     }
   }
-  if (dims.empty() || dims.back() < 1 || dataFile.compare(0, 4, "LIST") == 0 ||
-    dataFile.find('%') == std::string::npos)
+  if (dims.size() >= 2 && dataFile.compare(0, 4, "LIST") == 0)
+  {
+    // Bytes of one element; 0 (an unknown type) checks no file's size.
+    CheckMetaImageFileList(path, dims, dataFile, listOffset,
+      channels >= 1 && channels < (1ULL << 20) ? elementBytes * channels : 0, compressed);
+    return;
+  }
+  if (dims.empty() || dims.back() < 1 || dataFile.find('%') == std::string::npos)
   {
     return;
   }

@@ -1920,6 +1920,44 @@ def metaimage_slice_file_pattern_that_misses_slices_is_refused():
 
 
 @check
+def metaimage_file_list_that_misses_slices_is_refused():
+    """ElementDataFile = LIST names one slice file a line after it: with
+    fewer lines than slices (or a last name without its newline, which
+    VTK 9.1's reader skips) the missing slices were read as zeros, exit
+    status 0. Refused, and so are a listed file that is missing or
+    shorter than a slice, and an empty line among them; a complete list
+    (CRLF line ends, LIST 2D) still reads."""
+    d = fresh_dir("metaimage-list")
+    out = os.path.join(d, "o.vtp")
+    for k in range(1, 3):
+        with open(os.path.join(d, f"s{k}.raw"), "wb") as f:
+            f.write(bytes([k, 0, 0, 9]))
+    with open(os.path.join(d, "short.raw"), "wb") as f:
+        f.write(b"\1\2")
+    head = "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+    for label, listing, fragment in (
+            ("one", "LIST 2D\ns1.raw\n", "its file list names 1 file (one a line, each line "
+             "ended by a newline) for 2 slices"),
+            ("no-newline", "LIST\ns1.raw\ns2.raw", "names 1 file"),
+            ("missing", "LIST\ns1.raw\nnone.raw\n", "line 2 of its file list names "
+             "'none.raw', which is not a readable file"),
+            ("short", "LIST\ns1.raw\nshort.raw\n", "holds 2 bytes, fewer than a slice's 4"),
+            ("empty-line", "LIST\ns1.raw\n\n", "line 2 of its file list is empty")):
+        path = os.path.join(d, label + ".mhd")
+        with open(path, "w", newline="") as f:
+            f.write(head + "ElementDataFile = " + listing)
+        try:
+            expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+    for listing in ("LIST\ns1.raw\ns2.raw\n", "LIST 2D\r\ns1.raw \r\ns2.raw\r\n"):
+        path = os.path.join(d, "good.mhd")
+        with open(path, "w", newline="") as f:
+            f.write(head + "ElementDataFile = " + listing)
+        ok(path, "-q", "-v", "4", "-o", out)
+
+
+@check
 def header_errors_stop_the_read():
     """A reader that rejects a header (VTK's MetaImage reader takes at most
     3 dimensions) must not be asked for the data anyway: it allocated an
