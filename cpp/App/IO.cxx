@@ -704,22 +704,51 @@ vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
   return vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));
 }
 
-// The value of attribute `name` in the XML start tag `tag` ("" if absent).
-std::string XmlAttribute(const std::string& tag, const std::string& name)
+// The value of attribute `name` in the XML start tag `tag`, as XML writes
+// it: spaces allowed around the '=', the value in double or single
+// quotes. False when the tag has no such attribute.
+bool FindXmlAttribute(const std::string& tag, const std::string& name, std::string& value)
 {
-  for (size_t at = tag.find(name + "=\""); at != std::string::npos;
-       at = tag.find(name + "=\"", at + 1))
+  const auto space = [&tag](size_t i) {
+    return i < tag.size() && std::isspace(static_cast<unsigned char>(tag[i]));
+  };
+  for (size_t at = tag.find(name); at != std::string::npos; at = tag.find(name, at + 1))
   {
     // A whole attribute name, not the end of a longer one.
-    if (at > 0 && !std::isspace(static_cast<unsigned char>(tag[at - 1])))
+    if (at > 0 && !space(at - 1))
     {
       continue;
     }
-    const size_t start = at + name.size() + 2;
-    const size_t end = tag.find('"', start);
-    return end == std::string::npos ? "" : tag.substr(start, end - start);
+    size_t i = at + name.size();
+    while (space(i))
+    {
+      ++i;
+    }
+    if (i >= tag.size() || tag[i] != '=')
+    {
+      continue;
+    }
+    ++i;
+    while (space(i))
+    {
+      ++i;
+    }
+    if (i >= tag.size() || (tag[i] != '"' && tag[i] != '\''))
+    {
+      continue;
+    }
+    const size_t end = tag.find(tag[i], i + 1);
+    value = end == std::string::npos ? "" : tag.substr(i + 1, end - i - 1);
+    return true;
   }
-  return "";
+  return false;
+}
+
+// The value of attribute `name` in the XML start tag `tag` ("" if absent).
+std::string XmlAttribute(const std::string& tag, const std::string& name)
+{
+  std::string value;
+  return FindXmlAttribute(tag, name, value) ? value : "";
 }
 
 // The first `bytes` bytes of a file (fewer if it is shorter; "" if it
@@ -733,11 +762,11 @@ std::string FileHead(const std::string& path, size_t bytes)
   return head;
 }
 
-// A .vti whose <ImageData> Origin, Spacing or Direction is not all finite
-// numbers: VTK's reader drops an attribute it cannot parse ("NaN",
-// "Infinity", a word) and uses the default (origin 0, spacing 1, identity)
-// without a word, so the surface came out at a place and scale the file
-// does not give.
+// A .vti whose <ImageData> Origin, Spacing or Direction is not 3 (9 for
+// Direction) finite numbers: VTK's reader drops an attribute it cannot
+// parse ("NaN", "Infinity", a word, too few numbers, none) and uses the
+// default (origin 0, spacing 1, identity) without a word, so the surface
+// came out at a place and scale the file does not give.
 void CheckVtiGeometry(const std::string& path)
 {
   const std::string head = FileHead(path, 1 << 16);
@@ -748,20 +777,31 @@ void CheckVtiGeometry(const std::string& path)
     return;
   }
   const std::string element = head.substr(tag, end - tag);
-  for (const char* name : { "Origin", "Spacing", "Direction" })
+  for (const auto& attribute : { std::make_pair("Origin", 3), std::make_pair("Spacing", 3),
+         std::make_pair("Direction", 9) })
   {
-    const std::string value = XmlAttribute(element, name);
+    const std::string name = attribute.first;
+    std::string value;
+    if (!FindXmlAttribute(element, name, value))
+    {
+      continue;
+    }
     std::istringstream words(value);
     std::string word;
+    int count = 0;
+    bool finite = true;
     while (words >> word)
     {
       char* stop = nullptr;
       const double v = std::strtod(word.c_str(), &stop);
-      if (stop != word.c_str() + word.size() || !std::isfinite(v))
-      {
-        Unreadable(path, std::string("its ") + name + " \"" + value +
-            "\" is not all finite numbers (VTK's reader would use the default instead)");
-      }
+      finite = finite && stop == word.c_str() + word.size() && std::isfinite(v);
+      ++count;
+    }
+    if (!finite || count != attribute.second)
+    {
+      Unreadable(path, "its " + name + " \"" + value + "\" is not " +
+          std::to_string(attribute.second) + " finite numbers (VTK's reader would use the "
+          "default instead)");
     }
   }
 }

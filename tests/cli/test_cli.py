@@ -2190,6 +2190,43 @@ def vti_geometry_that_is_not_finite_is_refused():
 
 
 @check
+def vti_geometry_of_the_wrong_count_or_quoting_is_refused():
+    """VTK's XML reader also drops an Origin or Spacing of fewer than 3
+    numbers, an empty one, or a Direction of 8, and uses the default; the
+    tool's check looked for name="..." only, so Spacing='NaN 2 2' or
+    Spacing = "NaN 2 2" slipped past it too. All refused; the same
+    attributes written with single quotes or spaces around '=' still read,
+    at their own spacing."""
+    d = fresh_dir("vti-geometry-count")
+    good = os.path.join(d, "good.vti")
+    text = write_wavelet_vti(good, (0, 9, 0, 8, 0, 7))
+    out = os.path.join(d, "o.vtp")
+    for attr, written in (("Spacing", 'Spacing="2 3"'), ("Origin", 'Origin="100 200"'),
+                          ("Spacing", 'Spacing=""'), ("Direction", 'Direction="1 0 0 0 1 0 0 0"'),
+                          ("Spacing", "Spacing='NaN 2 2'"), ("Spacing", 'Spacing = "NaN 2 2"'),
+                          ("Origin", 'Origin="1 2 3 4"')):
+        m = re.search(attr + r'="[^"]*"', text)
+        expect(m, f"no {attr} in the written file")
+        bad = os.path.join(d, "bad.vti")
+        with open(bad, "w") as f:
+            f.write(text.replace(m.group(0), written, 1))
+        try:
+            expect_error([bad, "-v", "150", "-o", out], f"its {attr} ", outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{written}: {e}")
+    m = re.search(r'Spacing="[^"]*"', text)
+    quoted = os.path.join(d, "quoted.vti")
+    with open(quoted, "w") as f:
+        f.write(text.replace(m.group(0), "Spacing = '2 2 2'", 1))
+    ok(good, "-q", "-v", "150", "-o", out)
+    unit = read_surface(out).GetBounds()
+    ok(quoted, "-q", "-v", "150", "-o", out)
+    bounds = read_surface(out).GetBounds()
+    expect(all(abs(b - 2 * u) < 1e-4 for b, u in zip(bounds, unit)),
+           f"spacing 2 not applied: bounds {bounds}, at spacing 1 {unit}")
+
+
+@check
 def vti_arrays_that_are_not_numbers_are_refused():
     """VTK's XML reader crashed (segmentation fault) on a String array whose
     values it could not parse (words, or numbers that do not make one
