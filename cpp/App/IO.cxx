@@ -2030,6 +2030,7 @@ void CheckWorldFrame(vtkImageData* volume, const std::string& path)
   }
   int extent[6];
   volume->GetExtent(extent);
+  double largest[3] = { 0.0, 0.0, 0.0 }; // each world coordinate's, in magnitude
   for (int corner = 0; corner < 8; ++corner)
   {
     const double ijk[3] = { static_cast<double>(extent[corner & 1 ? 1 : 0]),
@@ -2052,6 +2053,47 @@ void CheckWorldFrame(vtkImageData* volume, const std::string& path)
               ")");
         }
       }
+      largest[r] = std::max(largest[r], std::fabs(x));
+    }
+  }
+  // Coordinates too large for the spacing: a double holds a coordinate x
+  // to half an ulp, |x| * 2^-53, which moves a point along index axis c
+  // by sum over r of |D^-1[c][r]| |x_r| 2^-53 / |spacing c| cells. Up to
+  // 2^-13 (1.2e-4) of a cell, a hundredth of the default epsilon, is
+  // allowed: a spacing of at least 2^-40 times the coordinates (per axis
+  // for an axis-aligned grid). Beyond it (origin 1e17 at spacing 1: an
+  // ulp of 16 cells) the surface's points collapsed onto each other, exit
+  // status 0.
+  double inverse[3][3] = { { 1, 0, 0 }, { 0, 1, 0 }, { 0, 0, 1 } };
+  if (!axisAligned)
+  {
+    double d[3][3];
+    for (int r = 0; r < 3; ++r)
+    {
+      for (int c = 0; c < 3; ++c)
+      {
+        d[r][c] = direction->GetElement(r, c);
+      }
+    }
+    vtkMath::Invert3x3(d, inverse);
+  }
+  for (int c = 0; c < 3; ++c)
+  {
+    double reach = 0.0; // sum over r of |D^-1[c][r]| |x_r|
+    for (int r = 0; r < 3; ++r)
+    {
+      reach += std::fabs(inverse[c][r]) * largest[r];
+    }
+    if (!(std::fabs(spacing[c]) >= std::ldexp(reach, -40)))
+    {
+      const auto triple = [](const double* v) {
+        return "(" + General(v[0]) + ", " + General(v[1]) + ", " + General(v[2]) + ")";
+      };
+      Unreadable(path, "its world coordinates (up to " + triple(largest) + " in magnitude, "
+          "origin " + triple(origin) + ") are too large for its spacing " + triple(spacing) +
+          ": in double precision they round by more than 1e-4 of a cell along axis " +
+          std::to_string(c) + " (a spacing of at least 2^-40 times the coordinates is needed; "
+          "move the origin nearer 0)");
     }
   }
 }

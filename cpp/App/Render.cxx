@@ -519,6 +519,7 @@ void ComputeDistance(Panel& panel)
   distance->Fill(0.0);
   panel.MaxDistance = 0.0;
   panel.MeanDistance = 0.0;
+  panel.Unmeasured = 0;
   if (n > 0 && CountTriangles(panel.Refined) > 0)
   {
     auto toIndex = WorldToIndex(panel.Volume);
@@ -538,15 +539,24 @@ void ComputeDistance(Panel& panel)
     vtkDataArray* d = filter->GetOutput()->GetPointData()->GetArray("Distance");
     if (d && d->GetNumberOfTuples() == n)
     {
+      // A distance the filter could not compute (NaN, on degenerate
+      // triangles) is counted apart, not averaged: one made the mean NaN.
       double sum = 0.0;
+      vtkIdType measured = 0;
       for (vtkIdType i = 0; i < n; ++i)
       {
         double v = std::fabs(d->GetTuple1(i));
         distance->SetValue(i, v);
+        if (!std::isfinite(v))
+        {
+          ++panel.Unmeasured;
+          continue;
+        }
         sum += v;
+        ++measured;
         panel.MaxDistance = std::max(panel.MaxDistance, v);
       }
-      panel.MeanDistance = sum / static_cast<double>(n);
+      panel.MeanDistance = measured > 0 ? sum / static_cast<double>(measured) : 0.0;
     }
   }
   result->GetPointData()->AddArray(distance);

@@ -27,6 +27,7 @@ struct Panel
   vtkSmartPointer<vtkPolyData> Distance;
   double MaxDistance = 0.0;
   double MeanDistance = 0.0;
+  long long Unmeasured = 0; // MC points with no finite distance, not in the two
 };
 
 // vtkMarchingCubes on component 0 of the volume's scalars (the one
@@ -38,7 +39,8 @@ vtkSmartPointer<vtkPolyData> RunMarchingCubes(vtkImageData* volume,
   const std::vector<double>& values, unsigned long long* dropped = nullptr);
 
 // Distance of every MC point to the refined surface, in cell units (index
-// space of the volume): fills panel.Distance, MaxDistance, MeanDistance.
+// space of the volume): fills panel.Distance, MaxDistance, MeanDistance
+// and Unmeasured.
 void ComputeDistance(Panel& panel);
 
 // Renders MC (left) beside the refined surface (right), one row per

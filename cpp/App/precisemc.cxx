@@ -660,7 +660,11 @@ int main(int argc, char* argv[])
         else if (!o.Distance.empty())
         {
           table << Row("MC to refined", "max " + pmcapp::Fixed(panel.MaxDistance, 3) + ", mean " +
-              pmcapp::Fixed(panel.MeanDistance, 3) + " cells");
+              pmcapp::Fixed(panel.MeanDistance, 3) + " cells" +
+              (panel.Unmeasured > 0
+                  ? " (" + pmcapp::Grouped(static_cast<unsigned long long>(panel.Unmeasured)) +
+                    " points with no finite distance left out)"
+                  : std::string()));
         }
         for (size_t i = 0; i < mcDistances.size(); ++i)
         {

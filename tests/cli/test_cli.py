@@ -2316,18 +2316,19 @@ def far_from_the_origin_the_refinement_is_kept():
     d = fresh_dir("far-origin")
     dims, _, _, v = blob_volume()
     results = {}
-    for label, origin in (("near", (0.0, 0.0, 0.0)), ("far", (5e5, 4e6, 0.0)),
-                          ("beyond float", (1e39, 0.0, 0.0))):
+    # Beyond float at a spacing doubles still resolve (a unit spacing
+    # there is refused: see far_origins_that_collapse_the_cells_are_refused).
+    for label, origin, spacing in (("near", (0.0, 0.0, 0.0), 1.0), ("far", (5e5, 4e6, 0.0), 1.0),
+                                   ("beyond float", (1e39, 0.0, 0.0), 1e28)):
         path = os.path.join(d, label.replace(" ", "-") + ".vti")
-        write_vti(density_image(v, dims, (1.0, 1.0, 1.0), origin), path)
+        write_vti(density_image(v, dims, (spacing,) * 3, origin), path)
         vtp = os.path.join(d, label.replace(" ", "-") + ".vtp")
         r = ok(path, "-v", "40", "--epsilon", "0.001", "--measure", "-o", vtp)
         (out_max, out_mean, _), = measured(r.stdout, "S_K distance out")
         results[label] = (out_max, out_mean)
         pts = vtk_to_numpy(read_surface(vtp).GetPoints().GetData())
         expect(np.isfinite(pts).all(), f"{label}: non-finite points written")
-        if label != "beyond float":  # (where doubles are a 1e23 apart)
-            expect(out_max <= 0.0015, f"{label}: max distance {out_max} (refined to 0.001)")
+        expect(out_max <= 0.0015, f"{label}: max distance {out_max} (refined to 0.001)")
         # PLY and STL hold float coordinates: beyond float's range the
         # write is refused (it wrote infinite points); far from the origin
         # it warns that the points are rounded. Near it, nothing is said.
@@ -2346,6 +2347,42 @@ def far_from_the_origin_the_refinement_is_kept():
             expect(os.path.getsize(out) > 0, f"{label} {ext}: nothing written")
     expect(abs(results["far"][1] - results["near"][1]) <= 0.2 * results["near"][1] + 1e-5,
            f"mean distance far from the origin {results['far']} vs near it {results['near']}")
+
+
+@check
+def far_origins_that_collapse_the_cells_are_refused():
+    """An origin so far from 0 that double precision cannot resolve the
+    spacing there (1e30 or 1e17 at spacing 1: coordinates 16 or more cells
+    apart) collapsed the surface's points onto each other, exit status 0,
+    and --distance printed "mean nan". Refused when the spacing along an
+    index axis is below 2^-40 times the coordinates along it (a rounding of
+    1e-4 of a cell); above it the volume reads."""
+    d = fresh_dir("far-collapse")
+    dims, _, _, v = blob_volume()
+    out = os.path.join(d, "o.vtp")
+    for label, origin, spacing in (("1e30", (1e30, 1e30, 1e30), 1.0), ("1e17", (1e17, 0, 0), 1.0),
+                                   ("negative", (0, -1e13, 0), 1.0)):
+        path = os.path.join(d, label + ".vti")
+        write_vti(density_image(v, dims, (spacing,) * 3, origin), path)
+        try:
+            expect_error([path, "-v", "40", "-o", out, "--distance", os.path.join(d, "d.png")],
+                         "are too large for its spacing", outputs=[out], status=1)
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+    # Per index axis: a turned grid whose axis 1 runs along x, far out in x.
+    turned = density_image(v, dims, (1.0, 1.0, 1.0), (1e17, 0, 0))
+    turned.SetDirectionMatrix(0, 1, 0, 1, 0, 0, 0, 0, 1)
+    path = os.path.join(d, "turned.vti")
+    write_vti(turned, path)
+    expect_error([path, "-v", "40", "-o", out], "along axis 1", outputs=[out], status=1)
+    # Anisotropic: the coarse axis far out, the fine ones near 0, reads.
+    path = os.path.join(d, "anisotropic.vti")
+    write_vti(density_image(v, dims, (1e6, 1.0, 1.0), (1e17, 0, 0)), path)
+    ok(path, "-q", "-v", "40", "-o", out)
+    path = os.path.join(d, "resolved.vti")
+    write_vti(density_image(v, dims, (1.0, 1.0, 1.0), (1e11, 0, 0)), path)
+    r = ok(path, "-v", "40", "-o", out, "--distance", os.path.join(d, "d.png"))
+    expect("nan" not in r.stdout, r.stdout)
 
 
 @check
