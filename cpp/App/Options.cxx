@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <set>
 
 namespace pmcapp
 {
@@ -114,6 +115,7 @@ Options ParseArguments(int argc, char* argv[])
 {
   Options o;
   bool optionsEnded = false;
+  std::set<std::string> given; // the options seen, by their long names
   for (int i = 1; i < argc; ++i)
   {
     std::string arg = argv[i];
@@ -174,6 +176,26 @@ Options ParseArguments(int argc, char* argv[])
         Usage(name + " takes no value");
       }
     };
+
+    // An option given twice is a mistake: the second silently replaced the
+    // first (-o a -o b wrote b only, --epsilon 0.1 --epsilon 0 ran plain
+    // Marching Cubes). Only -v adds up (isovalues are appended).
+    static const std::pair<const char*, const char*> shortNames[] = { { "-h", "--help" },
+      { "-q", "--quiet" }, { "-v", "--value" }, { "-o", "--output" } };
+    std::string option = name;
+    std::string shown = name;
+    for (const auto& alias : shortNames)
+    {
+      if (name == alias.first || name == alias.second)
+      {
+        option = alias.second;
+        shown = std::string(alias.first) + "/" + alias.second;
+      }
+    }
+    if (option != "--value" && !given.insert(option).second)
+    {
+      Usage(shown + " is given twice (only -v/--value can be repeated)");
+    }
 
     if (name == "-h" || name == "--help")
     {

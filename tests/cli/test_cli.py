@@ -939,6 +939,34 @@ def error_bad_option_values():
 
 
 @check
+def repeated_options_are_refused():
+    """An option given twice silently replaced the first: -o a -o b wrote
+    b only, --sample tube --sample atoms ran atoms, --epsilon 0.1 --epsilon
+    0 plain Marching Cubes. A command-line mistake (status 2), whatever
+    the spelling, nothing written; -v/--value alone adds up."""
+    d = fresh_dir("err-repeated")
+    a = os.path.join(d, "a.vtp")
+    b = os.path.join(d, "b.vtp")
+    for args, fragment in (
+            (["--sample", "tube", "-o", a, "-o", b], "-o/--output is given twice"),
+            (["--sample", "tube", "-o", a, "--output=" + b], "-o/--output is given twice"),
+            (["--sample", "tube", "--sample", "atoms", "-o", a], "--sample is given twice"),
+            (["--sample", "tube", "--epsilon", "0.1", "--epsilon", "0", "-o", a],
+             "--epsilon is given twice"),
+            (["--sample", "tube", "--rule", "A", "--rule=B", "-o", a], "--rule is given twice"),
+            (["--sample", "tube", "-q", "--quiet", "-o", a], "-q/--quiet is given twice"),
+            (["--sample", "tube", "--compare", os.path.join(d, "a.png"), "--compare",
+              os.path.join(d, "b.png"), "-o", a], "--compare is given twice")):
+        try:
+            expect_error(args, fragment, outputs=[a, b], status=2)
+        except Failure as e:
+            raise Failure(f"{args}: {e}")
+    expect(os.listdir(d) == [], f"files written: {os.listdir(d)}")
+    r = ok("--sample", "tube", "-v", "40", "--value", "60", "-o", a)
+    expect(len(table_values(r.stdout, "output triangles")) == 1, r.stdout)
+
+
+@check
 def error_unwritable_outputs():
     d = fresh_dir("err-write")
     missing_dir = os.path.join(d, "no", "such", "dir", "o.vtp")
