@@ -34,6 +34,7 @@
 #include "vtkPointData.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
+#include "vtkPreciseMarchingCubes.h"
 #include "vtkSTLWriter.h"
 #include "vtkStreamingDemandDrivenPipeline.h"
 #include "vtkStructuredPointsReader.h"
@@ -2390,6 +2391,14 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
   if (!scalars || scalars->GetNumberOfTuples() != image->GetNumberOfPoints())
   {
     Unreadable(path, "the volume has no point scalars");
+  }
+  // Refused here, with the other checks, rather than by the filter once
+  // the isovalue line is out (a legacy file's "bit" array).
+  if (vtkPreciseMarchingCubes::LibraryScalarType(scalars->GetDataType()) < 0)
+  {
+    Unreadable(path, std::string("its scalars '") + (scalars->GetName() ? scalars->GetName() : "") +
+        "' are of type " + scalars->GetDataTypeAsString() +
+        ", which PreciseMC does not contour (integer and floating point arrays)");
   }
   auto volume = vtkSmartPointer<vtkImageData>::New();
   volume->ShallowCopy(image);

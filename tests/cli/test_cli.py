@@ -2337,6 +2337,28 @@ def vti_arrays_that_are_not_numbers_are_refused():
 
 
 @check
+def scalars_of_a_type_the_filter_cannot_contour_are_refused():
+    """A legacy .vtk whose scalars are bits: the filter refused them after
+    the tool had printed the default isovalue's line on stdout. The tool
+    refuses them with its other checks, nothing on stdout; the same file
+    with bytes reads."""
+    d = fresh_dir("bit-scalars")
+    out = os.path.join(d, "o.vtp")
+    head = ("# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
+            "DIMENSIONS 2 2 2\nSPACING 1 1 1\nORIGIN 0 0 0\nPOINT_DATA 8\n")
+    for kind, fails in (("bit", True), ("unsigned_char", False)):
+        path = os.path.join(d, kind + ".vtk")
+        with open(path, "w") as f:
+            f.write(head + f"SCALARS s {kind} 1\nLOOKUP_TABLE default\n0 1 0 1 0 1 0 1\n")
+        if fails:
+            line = expect_error([path, "-o", out], "type bit", outputs=[out], status=1)
+            expect(kind + ".vtk" in line, line)
+        else:
+            ok(path, "-o", out, "-q")
+            expect(os.path.exists(out), "no output for bytes")
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
