@@ -75,7 +75,11 @@ fn recycled_arrays_are_kept_reused_and_change_nothing() {
     let (kept_with, left_with, bytes) = left_after(true);
     let (kept_without, left_without, _) = left_after(false);
     assert!(bytes >= std::mem::size_of::<[u64; 3]>() * tris.len());
-    assert_eq!(kept_with - kept_without, bytes, "the triangle array is kept");
+    assert_eq!(
+        kept_with - kept_without,
+        bytes,
+        "the triangle array is kept"
+    );
     assert_eq!(left_with, left_without, "the kept triangle array is reused");
     release_retained_memory();
 }
