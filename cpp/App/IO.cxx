@@ -230,6 +230,14 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   size_t controlAt = std::string::npos; // of the first control byte
   unsigned char controlByte = 0;
   std::string badSizes; // the first sizes value that is not all positive integers
+  // The magic line first: another format under a NRRD name (a MetaImage
+  // header renamed) was refused for a missing blank line, which misled.
+  char magic[7] = {};
+  if (!in.read(magic, sizeof(magic)) || std::string(magic, sizeof(magic)) != "NRRD000")
+  {
+    Unreadable(path, "it is not a NRRD file (it does not begin with the magic 'NRRD000')");
+  }
+  in.seekg(0);
   while (read < headerLimit && std::getline(in, line))
   {
     const size_t lineStart = read;

@@ -2359,6 +2359,24 @@ def scalars_of_a_type_the_filter_cannot_contour_are_refused():
 
 
 @check
+def another_format_under_a_nrrd_name_is_refused_as_not_nrrd():
+    """A MetaImage header renamed .nrrd (or any file without the NRRD magic)
+    was refused for a header with no blank line: now for not being NRRD."""
+    d = fresh_dir("not-nrrd")
+    out = os.path.join(d, "o.vtp")
+    for name, text in (("metaimage", "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
+                                     "ElementType = MET_UCHAR\nElementDataFile = LOCAL\n"
+                                     "\x00\x01\x00\x01\x00\x01\x00\x01"),
+                       ("short", "NRR")):
+        for ext in (".nrrd", ".nhdr"):
+            path = os.path.join(d, name + ext)
+            with open(path, "w") as f:
+                f.write(text)
+            line = expect_error([path, "-o", out], "not a NRRD file", outputs=[out], status=1)
+            expect(name + ext in line, line)
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
