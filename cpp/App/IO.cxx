@@ -704,6 +704,26 @@ vtkImageData* RunReader(vtkAlgorithm* reader, const std::string& path)
   }
   if (!errors.empty())
   {
+    // The legacy reader reads ASCII values with a stream, which stops at
+    // "nan" or "inf" (as VTK's own writer writes NaN and infinities) and
+    // takes the word for the next section's keyword: say so.
+    std::string lower = errors.front();
+    std::transform(lower.begin(), lower.end(), lower.begin(),
+      [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    const size_t at = lower.find("attribute type: ");
+    if (at != std::string::npos)
+    {
+      std::string word = lower.substr(at + 16, lower.find(' ', at + 16) - at - 16);
+      if (!word.empty() && (word[0] == '-' || word[0] == '+'))
+      {
+        word.erase(0, 1);
+      }
+      if (word == "nan" || word == "inf" || word == "infinity")
+      {
+        Unreadable(path, "its ASCII data holds a non-finite value ('" + word +
+            "'), which VTK's legacy reader cannot read (write the file in binary, or as .vti)");
+      }
+    }
     Unreadable(path, errors.front());
   }
   if (reader->GetErrorCode() != 0)

@@ -2377,6 +2377,37 @@ def another_format_under_a_nrrd_name_is_refused_as_not_nrrd():
 
 
 @check
+def legacy_ascii_with_non_finite_values_names_them():
+    """VTK's legacy writer writes NaN and infinities as words in ASCII files,
+    which its reader cannot read back ("Unsupported point attribute type:
+    nan"): the tool refuses such a file saying why; in binary it reads,
+    the non-finite samples skipped."""
+    d = fresh_dir("legacy-nan")
+    out = os.path.join(d, "o.vtp")
+    for value, word in ((float("nan"), "nan"), (float("inf"), "inf"), (-float("inf"), "inf")):
+        image = blob_image()
+        scalars = image.GetPointData().GetScalars()
+        scalars.SetValue(image.GetNumberOfPoints() // 3, value)
+        for binary in (False, True):
+            path = os.path.join(d, f"{word}-{'binary' if binary else 'ascii'}.vtk")
+            w = vtkStructuredPointsWriter()
+            w.SetFileName(path)
+            w.SetInputData(image)
+            if binary:
+                w.SetFileTypeToBinary()
+            else:
+                w.SetFileTypeToASCII()
+            w.Write()
+            if binary:
+                ok(path, "-v", "50", "-o", out, "-q")
+            else:
+                refused = os.path.join(d, f"{word}-refused.vtp")
+                line = expect_error([path, "-v", "50", "-o", refused], "non-finite value",
+                                    outputs=[refused], status=1)
+                expect(f"'{word}'" in line, line)
+
+
+@check
 def far_from_the_origin_the_refinement_is_kept():
     """Single-precision points round the surface by 0.25 cells at 4e6 with
     unit spacing: the tool stores points in double precision there (and
