@@ -529,10 +529,24 @@ mod tests {
                             std::thread::sleep(Duration::from_millis(1));
                         }
                         let counts: Vec<AtomicU64> = (0..500).map(|_| AtomicU64::new(0)).collect();
+                        // Each task waits (up to 5 s) until two threads
+                        // have run tasks of this call: a call left without
+                        // a helper runs them all on one.
+                        let threads = std::sync::Mutex::new(HashSet::new());
                         h.run(500, &|i| {
                             counts[i].fetch_add(1, Ordering::Relaxed);
+                            threads.lock().unwrap().insert(std::thread::current().id());
+                            while threads.lock().unwrap().len() < 2 && start.elapsed().as_secs() < 5
+                            {
+                                std::thread::sleep(Duration::from_millis(1));
+                            }
                         });
                         assert!(counts.iter().all(|c| c.load(Ordering::Relaxed) == 1));
+                        assert_eq!(
+                            threads.lock().unwrap().len(),
+                            2,
+                            "a helper ran this call's tasks"
+                        );
                     });
                 });
             }
