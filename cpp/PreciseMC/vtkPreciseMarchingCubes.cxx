@@ -893,6 +893,8 @@ int vtkPreciseMarchingCubes::Contour(
         (input->GetCellGhostArray() != nullptr ||
           !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
             this->ContourSplitExtent, this->ContourSplitMode));
+    int asked[6]; // the piece asked for, before OwnCells() takes the input's own cells
+    std::copy(piece, piece + 6, asked);
     if (ownSplit && !OwnCells(input, dataExtent, piece))
     {
       vtkDebugMacro(<< "Every cell of the input piece is a ghost cell");
@@ -951,9 +953,11 @@ int vtkPreciseMarchingCubes::Contour(
     }
     // Without the samples around the piece that the run needs (see
     // GhostSamples()), the surface next to a cut may differ from the
-    // serial one: say so.
+    // serial one: say so. (Also for an input that is the piece asked for
+    // but without the ghost layer asked with it: a source that ignores
+    // ghost levels.)
     bool short_of_samples = false;
-    for (int i = 0; ownSplit && i < 3; ++i)
+    for (int i = 0; (ownSplit || this->ContourPieces > 1) && i < 3; ++i)
     {
       const int want = global ? std::numeric_limits<int>::max() : neededSamples;
       short_of_samples = short_of_samples ||
@@ -965,11 +969,11 @@ int vtkPreciseMarchingCubes::Contour(
     }
     if (short_of_samples)
     {
-      vtkWarningMacro(<< "The input arrived as the piece (" << dataExtent[0] << ".."
+      vtkWarningMacro(<< "The input arrived as the extent (" << dataExtent[0] << ".."
                       << dataExtent[1] << ", " << dataExtent[2] << ".." << dataExtent[3] << ", "
-                      << dataExtent[4] << ".." << dataExtent[5] << ") instead of the one asked for ("
-                      << piece[0] << ".." << piece[1] << ", " << piece[2] << ".." << piece[3]
-                      << ", " << piece[4] << ".." << piece[5]
+                      << dataExtent[4] << ".." << dataExtent[5] << ") for the piece ("
+                      << asked[0] << ".." << asked[1] << ", " << asked[2] << ".." << asked[3]
+                      << ", " << asked[4] << ".." << asked[5]
                       << "), without the samples around it that "
                       << (global ? "the B-Spline Interpolating prefilter"
                                  : "normals or gradients, a cubic filter, or refinement on "
@@ -1101,13 +1105,31 @@ int vtkPreciseMarchingCubes::Contour(
   // in the indices, so when it is finite at the corners of the extent it
   // is finite everywhere in it. (The library refuses an overflowing
   // axis-aligned grid itself.) Its largest coordinate decides whether
-  // float points can hold the output.
+  // float points can hold the output: that of the whole volume's extent
+  // where the pipeline gives one, so that every piece of a distributed run
+  // decides as a serial run does (a piece nearer the origin took float
+  // points, its neighbour double ones, and they no longer met).
+  int boxExtent[6];
+  std::copy(dataExtent, dataExtent + 6, boxExtent);
+  if (inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
+  {
+    int whole[6];
+    inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole);
+    if (!IsEmptyExtent(whole))
+    {
+      for (int i = 0; i < 3; ++i)
+      {
+        boxExtent[2 * i] = std::min(boxExtent[2 * i], whole[2 * i]);
+        boxExtent[2 * i + 1] = std::max(boxExtent[2 * i + 1], whole[2 * i + 1]);
+      }
+    }
+  }
   double worldMax = 0.0;
   for (int corner = 0; corner < 8; ++corner)
   {
-    const double ijk[3] = { static_cast<double>(dataExtent[corner & 1 ? 1 : 0]),
-      static_cast<double>(dataExtent[corner & 2 ? 3 : 2]),
-      static_cast<double>(dataExtent[corner & 4 ? 5 : 4]) };
+    const double ijk[3] = { static_cast<double>(boxExtent[corner & 1 ? 1 : 0]),
+      static_cast<double>(boxExtent[corner & 2 ? 3 : 2]),
+      static_cast<double>(boxExtent[corner & 4 ? 5 : 4]) };
     for (int r = 0; r < 3; ++r)
     {
       double x = origin[r];
@@ -1120,8 +1142,8 @@ int vtkPreciseMarchingCubes::Contour(
       if (!finite && !axisAligned)
       {
         vtkErrorMacro(<< "Invalid image geometry: the world coordinates of the extent ("
-                      << dataExtent[0] << ".." << dataExtent[1] << ", " << dataExtent[2] << ".."
-                      << dataExtent[3] << ", " << dataExtent[4] << ".." << dataExtent[5]
+                      << boxExtent[0] << ".." << boxExtent[1] << ", " << boxExtent[2] << ".."
+                      << boxExtent[3] << ", " << boxExtent[4] << ".." << boxExtent[5]
                       << ") are not finite (they overflow) with origin (" << origin[0] << ", "
                       << origin[1] << ", " << origin[2] << "), spacing (" << spacing[0] << ", "
                       << spacing[1] << ", " << spacing[2] << ") and the direction matrix");

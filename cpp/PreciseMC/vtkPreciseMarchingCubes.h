@@ -85,7 +85,9 @@
  * pieces still cover the volume once; without the ghost layer the run
  * needs, the surface next to the cuts may then differ from the serial one,
  * and the filter warns (not for flat triangles on a cut where samples
- * equal the isovalue). InterpolateAttributes gives every point the same
+ * equal the isovalue); so it does for an input that is the piece asked for
+ * but without the ghost layer asked with it (a source that ignores ghost
+ * levels). InterpolateAttributes gives every point the same
  * values in every piece, and never interpolates the input's ghost flags.
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in
@@ -342,7 +344,9 @@ public:
    * least normal number, about 1.2e-38, or spanning fewer float steps at
    * the largest world coordinate than 2^MaxLevel, e.g. an origin of 1e7
    * with unit spacing), DEFAULT_PRECISION gives double points too and
-   * SINGLE_PRECISION warns.
+   * SINGLE_PRECISION warns. The largest world coordinate is that of the
+   * whole volume (the pipeline's whole extent), so that every piece of a
+   * distributed run makes the serial run's choice.
    */
   vtkSetClampMacro(OutputPointsPrecision, int, SINGLE_PRECISION, DEFAULT_PRECISION);
   vtkGetMacro(OutputPointsPrecision, int);

@@ -972,6 +972,63 @@ def test_pieces_equal_the_serial_surface(name):
         assert np.array_equal(union, serial), f"{pieces} pieces"
 
 
+def test_pieces_choose_the_serial_points_precision():
+    """With the default precision, points are double where float could not
+    tell the refined points apart (far from the origin). The choice is the
+    whole volume's on every piece: a piece nearer the origin took float
+    points and no longer met its neighbour (a crack along the cut)."""
+    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+    from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkImageData
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    class Moved(VTKPythonAlgorithmBase):
+        """The input at another origin, its pieces' ghost cells kept marked
+        (vtkImageChangeInformation passes on the point data only)."""
+
+        def __init__(self, origin):
+            super().__init__(nInputPorts=1, inputType="vtkImageData", nOutputPorts=1,
+                             outputType="vtkImageData")
+            self.origin = origin
+
+        def RequestInformation(self, request, inInfo, outInfo):
+            outInfo.GetInformationObject(0).Set(vtkDataObject.ORIGIN(), *self.origin)
+            return 1
+
+        def RequestData(self, request, inInfo, outInfo):
+            out = vtkImageData.GetData(outInfo)
+            out.ShallowCopy(vtkImageData.GetData(inInfo[0]))
+            out.SetOrigin(*self.origin)
+            return 1
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-16, 16, -4, 4, -4, 4)
+    # x from 262124 to 262156: float steps are 2^-5 from 2^18 = 262144 on,
+    # as fine as refinement at MaxLevel 5 splits a cell.
+    moved = Moved((262140.0, 0.0, 0.0))
+    moved.SetInputConnection(source.GetOutputPort())
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(moved.GetOutputPort())
+    f.SetValue(0, 150.0)
+    f.SetEpsilon(0.001)
+    f.SetMaxLevel(5)
+    assert f.GetOutputPointsPrecision() == 2  # DEFAULT_PRECISION
+    f.UpdatePiece(0, 1, 0)
+    assert f.GetOutput().GetPoints().GetPoint(0)[0] > 262000
+    assert f.GetOutput().GetPoints().GetDataType() == 11  # VTK_DOUBLE
+    serial = coordinate_triangles(f.GetOutput())
+    assert len(serial) > 500
+    parts = []
+    for piece in range(2):
+        f.UpdatePiece(piece, 2, 0)
+        out = f.GetOutput()
+        assert out.GetNumberOfPolys() > 0
+        assert out.GetPoints().GetDataType() == 11, f"piece {piece}"  # VTK_DOUBLE
+        parts.append(coordinate_triangles(out))
+    union = np.concatenate(parts)
+    union = union[np.lexsort(union.T[::-1])]
+    assert np.array_equal(union, serial)
+
+
 @pytest.mark.parametrize("props", [
     {"Epsilon": 0.0},
     {"Epsilon": 0.01, "Topology": 1},
@@ -1149,6 +1206,73 @@ def test_a_source_without_a_whole_extent_is_contoured(props):
     # Each piece says what it did (test_pieces_without_a_whole_extent_warn).
     assert not observer.errors and len(observer.warnings) == 5
     assert all("reports no whole extent" in w for w in observer.warnings)
+
+
+def test_pieces_without_the_ghost_layer_asked_for_warn():
+    # A source with a whole extent that delivers each piece as asked but
+    # without the ghost layer asked with it (and no ghost array): the
+    # surface next to the cuts may differ from the serial one, which the
+    # filter said only for inputs split otherwise than asked. It says it
+    # here too, and not when no ghost layer is needed or the source gives
+    # it.
+    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkCommonExecutionModel import (vtkExtentTranslator,
+                                                    vtkStreamingDemandDrivenPipeline as sddp)
+    from vtkmodules.vtkImagingCore import vtkExtractVOI
+
+    image = wavelet(8)
+
+    class NoGhosts(VTKPythonAlgorithmBase):
+        def __init__(self):
+            super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
+            self.ghosts = False
+
+        def RequestInformation(self, request, inInfo, outInfo):
+            info = outInfo.GetInformationObject(0)
+            info.Set(sddp.WHOLE_EXTENT(), *image.GetExtent())
+            info.Set(VTKPythonAlgorithmBase.CAN_PRODUCE_SUB_EXTENT(), 1)
+            return 1
+
+        def RequestData(self, request, inInfo, outInfo):
+            info = outInfo.GetInformationObject(0)
+            extent = list(info.Get(sddp.UPDATE_EXTENT()))
+            if not self.ghosts:
+                vtkExtentTranslator().PieceToExtentThreadSafe(
+                    info.Get(sddp.UPDATE_PIECE_NUMBER()), info.Get(sddp.UPDATE_NUMBER_OF_PIECES()),
+                    0, image.GetExtent(), extent, vtkExtentTranslator.BLOCK_MODE, 0)
+            voi = vtkExtractVOI()
+            voi.SetInputData(image)
+            voi.SetVOI(extent)
+            voi.Update()
+            vtkImageData.GetData(outInfo).ShallowCopy(voi.GetOutput())
+            return 1
+
+    source = NoGhosts()  # kept: the pipeline holds no Python reference
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(source.GetOutputPort())
+    f.SetValue(0, 150.0)
+    observer = ErrorObserver(f)
+    # Plain Marching Cubes without normals needs no ghost layer; refinement
+    # that may mesh a cell again on sub-cells needs one.
+    f.SetComputeNormals(0)
+    for props, ghosts, warns in (({"Epsilon": 0.0}, False, False),
+                                 ({"Epsilon": 0.001, "MaxLevel": 5}, False, True),
+                                 ({"Epsilon": 0.001, "MaxLevel": 5}, True, False)):
+        for name, value in props.items():
+            getattr(f, "Set" + name)(value)
+        source.ghosts = ghosts
+        source.Modified()
+        observer.warnings.clear()
+        for piece in range(2):
+            f.UpdatePiece(piece, 2, 0)
+            assert f.GetOutput().GetNumberOfPolys() > 0
+        assert not observer.errors
+        assert len(observer.warnings) == (2 if warns else 0), (props, ghosts, observer.warnings)
+        for piece, warning in enumerate(observer.warnings):
+            assert "without the samples around it" in warning
+            assert "surface may differ from a serial run's" in warning
+            assert "for the piece (" in warning
 
 
 def test_pieces_without_a_whole_extent_warn():
