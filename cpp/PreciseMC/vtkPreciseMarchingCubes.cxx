@@ -432,8 +432,10 @@ struct MeshSelection
 // assign each triangle to the same cell: the union of the pieces is the
 // serial mesh, each triangle exactly once. Triangles beyond the extent on
 // a side without ghost cells (flat in the volume's last face) are kept.
+// With `hidden` (the cell ghost flags of the input's cells, extent
+// `dataExtent`), the triangles of cells flagged HIDDENCELL are dropped too.
 void SelectCells(const pmc_mesh* mesh, const int extent[6], const int sampleExtent[6],
-  MeshSelection& selection)
+  const unsigned char* hidden, const int dataExtent[6], MeshSelection& selection)
 {
   const vtkIdType np = static_cast<vtkIdType>(pmc_mesh_point_count(mesh));
   const vtkIdType nt = static_cast<vtkIdType>(pmc_mesh_triangle_count(mesh));
@@ -446,6 +448,8 @@ void SelectCells(const pmc_mesh* mesh, const int extent[6], const int sampleExte
   {
     const int64_t* tri = tris + 3 * t;
     bool keep = true;
+    vtkIdType hiddenId = 0; // the triangle's cell among the input's
+    vtkIdType stride = 1;
     for (int d = 0; d < 3 && keep; ++d)
     {
       const double lowest =
@@ -459,6 +463,18 @@ void SelectCells(const pmc_mesh* mesh, const int extent[6], const int sampleExte
       {
         keep = false;
       }
+      if (hidden)
+      {
+        // A triangle in the volume's last face belongs to the last cell.
+        const double c = std::max(static_cast<double>(dataExtent[2 * d]),
+          std::min(cell, static_cast<double>(dataExtent[2 * d + 1] - 1)));
+        hiddenId += (static_cast<vtkIdType>(c) - dataExtent[2 * d]) * stride;
+        stride *= static_cast<vtkIdType>(dataExtent[2 * d + 1]) - dataExtent[2 * d];
+      }
+    }
+    if (keep && hidden && (hidden[hiddenId] & vtkDataSetAttributes::HIDDENCELL) != 0)
+    {
+      keep = false;
     }
     if (keep)
     {
@@ -992,6 +1008,26 @@ int vtkPreciseMarchingCubes::Contour(
     ghostCells = ghostCells || sampleExtent[2 * i] != extent[2 * i] ||
       sampleExtent[2 * i + 1] != extent[2 * i + 1];
   }
+  // Cells the input's ghost array hides (blanking: in AMR data, a finer
+  // block covers them) make no triangles, as vtkContourFilter skips them
+  // in a vtkUniformGrid; their samples still shape the surface around.
+  const unsigned char* hidden = nullptr;
+  if (vtkUnsignedCharArray* flags = input->GetCellGhostArray())
+  {
+    vtkIdType cells = 1;
+    for (int i = 0; i < 3; ++i)
+    {
+      cells *= std::max<vtkIdType>(0, static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i]);
+    }
+    const unsigned char* flag = flags->GetPointer(0);
+    if (flags->GetNumberOfComponents() == 1 && flags->GetNumberOfTuples() == cells &&
+      std::any_of(flag, flag + cells,
+        [](unsigned char f) { return (f & vtkDataSetAttributes::HIDDENCELL) != 0; }))
+    {
+      hidden = flag;
+    }
+  }
+  const bool selectCells = ghostCells || hidden != nullptr;
   if (dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
   {
     if ((!this->HasContourExtent || this->ContourPieces == 1) && input->GetNumberOfCells() > 0)
@@ -1358,7 +1394,7 @@ int vtkPreciseMarchingCubes::Contour(
       return 1;
     }
     MeshSelection& selection = selections[static_cast<size_t>(c)];
-    if (ghostCells)
+    if (selectCells)
     {
       if ((pmc_mesh_point_count(mesh.get()) > 0 && !pmc_mesh_index_points(mesh.get())) ||
         (pmc_mesh_triangle_count(mesh.get()) > 0 &&
@@ -1369,7 +1405,7 @@ int vtkPreciseMarchingCubes::Contour(
         output->Initialize();
         return 1;
       }
-      SelectCells(mesh.get(), extent, sampleExtent, selection);
+      SelectCells(mesh.get(), extent, sampleExtent, hidden, dataExtent, selection);
       // The output statistics describe the kept triangles only.
       const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh.get());
       for (vtkIdType t : selection.Triangles)
@@ -1387,7 +1423,7 @@ int vtkPreciseMarchingCubes::Contour(
     }
     this->NumberOfMCTriangles += stats.mc_triangles;
     this->NumberOfRefinedTriangles +=
-      ghostCells ? selection.NumberOfTriangles : stats.output_triangles;
+      selectCells ? selection.NumberOfTriangles : stats.output_triangles;
     this->NumberOfAmbiguousCells += stats.ambiguous_cells;
     this->NumberOfSkippedCells += stats.skipped_nonfinite_cells;
     this->NumberOfSamplesEvaluated += stats.samples_evaluated;

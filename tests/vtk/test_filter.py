@@ -924,7 +924,11 @@ def coordinate_triangles(poly):
     lexicographically smallest vertex (orientation kept)."""
     if poly.GetNumberOfPolys() == 0:
         return np.zeros((0, 9))
-    xyz = points(poly)[triangles(poly)]
+    return coordinate_rows(points(poly)[triangles(poly)])
+
+
+def coordinate_rows(xyz):
+    """coordinate_triangles() of triangles given by their corners (n, 3, 3)."""
     rows = []
     for tri in xyz:
         first = min(range(3), key=lambda v: tuple(tri[v]))
@@ -970,6 +974,51 @@ def test_pieces_equal_the_serial_surface(name):
         union = union[np.lexsort(union.T[::-1])]
         assert union.shape == serial.shape, f"{pieces} pieces"
         assert np.array_equal(union, serial), f"{pieces} pieces"
+
+
+@pytest.mark.parametrize("props", [
+    {"Epsilon": 0.0, "Topology": 1},
+    {"Epsilon": 0.0},
+    {"Epsilon": 0.002, "MaxLevel": 5},
+])
+def test_hidden_cells_make_no_triangles(props, rng):
+    """Cells the ghost array flags HIDDENCELL (AMR blanking: a finer block
+    covers them) make no triangles, as vtkContourFilter skips them in a
+    vtkUniformGrid, where the filter contoured them (overlapping surfaces
+    in AMR data). The rest of the surface is unchanged: their samples still
+    shape it. Duplicate-cell flags alone hide nothing."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes, vtkUniformGrid
+    from vtkmodules.vtkFiltersCore import vtkContourFilter
+
+    image = wavelet(8)
+    full = precise(image, [150.0], **props)
+    shape = (16, 16, 16)  # cells, [k, j, i]
+    blocks = rng.random((4, 4, 4)) < 0.4  # hidden 4x4x4 blocks of cells
+    hide = np.kron(blocks, np.ones((4, 4, 4), dtype=bool)).reshape(shape)
+    for flag, dropped in ((vtkDataSetAttributes.HIDDENCELL, True),
+                          (vtkDataSetAttributes.DUPLICATECELL, False)):
+        grid = vtkUniformGrid()
+        grid.DeepCopy(image)
+        flags = np.where(hide, flag, 0).astype(np.uint8).ravel()
+        ghosts = numpy_to_vtk(flags, deep=1, array_type=3)  # VTK_UNSIGNED_CHAR
+        ghosts.SetName("vtkGhostType")
+        grid.GetCellData().AddArray(ghosts)
+        out = precise(grid, [150.0], **props).GetOutput()
+        # The full surface's triangles whose cell (the floor of their
+        # lowest vertex coordinates, index space) is not hidden.
+        xyz = points(full.GetOutput())[triangles(full.GetOutput())]
+        cell = np.minimum(np.floor(xyz.min(axis=1) + 8.0).astype(int), 15)  # extent from -8
+        hidden = hide[cell[:, 2], cell[:, 1], cell[:, 0]]
+        assert 0 < hidden.sum() < len(hidden)
+        keep = ~hidden if dropped else np.ones(len(hidden), dtype=bool)
+        assert np.array_equal(coordinate_triangles(out), coordinate_rows(xyz[keep]))
+        if props.get("Topology") == 1 and dropped:
+            contour = vtkContourFilter()
+            contour.SetInputData(grid)
+            contour.SetValue(0, 150.0)
+            contour.Update()
+            assert out.GetNumberOfPolys() == contour.GetOutput().GetNumberOfPolys()
 
 
 def test_pieces_choose_the_serial_points_precision():
