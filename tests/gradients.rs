@@ -201,12 +201,13 @@ fn gradients_do_not_depend_on_the_thread_count() {
 }
 
 /// A spacing so small that the world gradient leaves float's range gives
-/// infinite components, never NaN; a huge one, tiny but signed ones.
+/// infinite components, never NaN; a huge one, zeros that keep their sign.
 #[test]
 fn gradients_of_extreme_spacings_are_not_nan() {
     let values = grid_fn([6, 6, 6], |x, y, z| {
         ((x - 2.5).powi(2) + (y - 2.4).powi(2) + (z - 2.6).powi(2)).sqrt()
     });
+    let centre = [2.5, 2.4, 2.6];
     for spacing in [[5e-324, 1.0, 1.0], [1.0, 1e-310, 1e300]] {
         let v = Volume::new(&values, [6, 6, 6]).with_spacing(spacing);
         for normals in MODES {
@@ -216,6 +217,36 @@ fn gradients_of_extreme_spacings_are_not_nan() {
                 .gradients
                 .iter()
                 .all(|g| g.iter().all(|c| !c.is_nan()) && g.iter().any(|c| *c != 0.0)));
+            // Along each axis, away from the centre's plane (where the
+            // sampled distance field's derivative has a sure sign): a tiny
+            // spacing gives an infinite component, a huge one a zero, each
+            // with the sign of the distance's derivative; spacing 1 a finite
+            // one.
+            let mut checked = [0; 3];
+            for (g, p) in m.gradients.iter().zip(&m.index_points) {
+                for a in 0..3 {
+                    let off = p[a] - centre[a];
+                    if off.abs() < 0.6 {
+                        continue;
+                    }
+                    checked[a] += 1;
+                    let c = g[a];
+                    assert_eq!(
+                        c.is_sign_negative(),
+                        off < 0.0,
+                        "{spacing:?} {normals:?}: axis {a} at {p:?}: {g:?}"
+                    );
+                    match spacing[a] {
+                        s if s < 1e-300 => assert!(c.is_infinite(), "{spacing:?}: {g:?}"),
+                        s if s > 1e299 => assert_eq!(c, 0.0, "{spacing:?}: {g:?}"),
+                        _ => assert!(
+                            c.is_finite() && c != 0.0,
+                            "{spacing:?} {normals:?} at {p:?}: {g:?}"
+                        ),
+                    }
+                }
+            }
+            assert!(checked.iter().all(|&n| n > 20), "{checked:?}");
         }
     }
 }
