@@ -448,9 +448,17 @@ fn every_scalar_type_equals_rust_api() {
         .iter()
         .map(|&x| (x * 10.0).round() as f64)
         .collect();
+    // Values around 0 for the signed types and across the signed maximum
+    // for the unsigned ones (scaled where f64 steps are coarse there), so
+    // that a sample read with the wrong signedness changes the surface.
     macro_rules! check {
-        ($t:ty, $st:expr) => {{
-            let d: Vec<$t> = base.iter().map(|&x| x as $t).collect();
+        ($t:ty, $st:expr, $scale:expr, $shift:expr) => {{
+            let (scale, shift): (f64, f64) = ($scale, $shift);
+            let d: Vec<$t> = base.iter().map(|&x| (x * scale + shift) as $t).collect();
+            // (Below 0, or the signed maximum, and above it.)
+            let edge = shift + 40.0 * scale;
+            assert!(d.iter().any(|&v| (v as f64) < edge) && d.iter().any(|&v| v as f64 >= edge));
+            let iso = 35.5 * scale + shift;
             let cv = pmc_volume {
                 struct_size: std::mem::size_of::<pmc_volume>() as u64,
                 data: d.as_ptr().cast(),
@@ -461,22 +469,27 @@ fn every_scalar_type_equals_rust_api() {
                 origin: [0.0; 3],
                 spacing: [1.0; 3],
             };
-            let cm = c_extract(&cv, 35.5, ptr::null()).unwrap();
-            cm.assert_equals(
-                &extract(&Volume::new(&d, [n; 3]), 35.5, &Options::default()).unwrap(),
-            );
+            let cm = c_extract(&cv, iso, ptr::null()).unwrap();
+            let rm = extract(&Volume::new(&d, [n; 3]), iso, &Options::default()).unwrap();
+            assert!(rm.triangles.len() > 100, "{}", stringify!($t));
+            cm.assert_equals(&rm);
         }};
     }
-    check!(i8, PmcScalarType::I8);
-    check!(u8, PmcScalarType::U8);
-    check!(i16, PmcScalarType::I16);
-    check!(u16, PmcScalarType::U16);
-    check!(i32, PmcScalarType::I32);
-    check!(u32, PmcScalarType::U32);
-    check!(i64, PmcScalarType::I64);
-    check!(u64, PmcScalarType::U64);
-    check!(f32, PmcScalarType::F32);
-    check!(f64, PmcScalarType::F64);
+    check!(i8, PmcScalarType::I8, 1.0, -40.0);
+    check!(u8, PmcScalarType::U8, 1.0, 128.0 - 40.0);
+    check!(i16, PmcScalarType::I16, 1.0, -40.0);
+    check!(u16, PmcScalarType::U16, 1.0, 32768.0 - 40.0);
+    check!(i32, PmcScalarType::I32, 1.0, -40.0);
+    check!(u32, PmcScalarType::U32, 1.0, 2147483648.0 - 40.0);
+    check!(i64, PmcScalarType::I64, 1.0, -40.0);
+    check!(
+        u64,
+        PmcScalarType::U64,
+        4096.0,
+        9223372036854775808.0 - 40.0 * 4096.0
+    );
+    check!(f32, PmcScalarType::F32, 1.0, -40.0);
+    check!(f64, PmcScalarType::F64, 1.0, -40.0);
 }
 
 unsafe extern "C" fn record(user_data: *mut c_void, fraction: f64) -> c_int {
