@@ -137,28 +137,42 @@ static void test_take_triangles(void) {
     free((void *)v.data);
 }
 
-/* Every scalar type with the same integer values gives the same mesh. */
+/* Every scalar type gives the mesh of the same values in doubles. The
+ * values lie around 0 for the signed types and across the signed maximum
+ * for the unsigned ones (in steps of 4096 for uint64_t, where doubles are
+ * that coarse), so that a sample read with the wrong signedness or width
+ * changes the surface. */
 static void test_scalar_types(void) {
-    pmc_volume ref = make_sphere(16, PMC_SCALAR_TYPE_F64, 4.0);
-    pmc_mesh *mref;
     pmc_scalar_type t;
-    /* make_sphere rounds for integer types: round the reference too. */
-    {
-        uint64_t i;
-        double *d = (double *)ref.data;
-        for (i = 0; i < ref.len; i++) d[i] = floor(d[i] + 0.5);
-    }
-    mref = extract(&ref, 20.5, NULL);
-    CHECK(mesh_is_closed(mref));
     for (t = 0; t < 10; t++) {
-        pmc_volume v = make_sphere(16, t, 4.0);
-        pmc_mesh *m;
+        const int is_signed = t == PMC_SCALAR_TYPE_I8 || t == PMC_SCALAR_TYPE_I16 ||
+                              t == PMC_SCALAR_TYPE_I32 || t == PMC_SCALAR_TYPE_I64 ||
+                              t == PMC_SCALAR_TYPE_F32 || t == PMC_SCALAR_TYPE_F64;
+        const double scale = t == PMC_SCALAR_TYPE_U64 ? 4096.0 : 1.0;
+        const double edge = is_signed ? 0.0 /* the values' middle: 0, or the signed maximum + 1 */
+                            : t == PMC_SCALAR_TYPE_U8  ? 128.0
+                            : t == PMC_SCALAR_TYPE_U16 ? 32768.0
+                            : t == PMC_SCALAR_TYPE_U32 ? 2147483648.0
+                                                       : 9223372036854775808.0;
+        const double shift = edge - 20.0 * scale;
+        pmc_volume v = make_sphere(16, PMC_SCALAR_TYPE_F64, 4.0), ref = v;
+        double *d = (double *)v.data;
+        void *buf = malloc((size_t)v.len * scalar_size(t));
+        int below = 0, above = 0;
+        pmc_mesh *m, *mref;
         uint64_t i;
-        if (t == PMC_SCALAR_TYPE_F32)
-            for (i = 0; i < v.len; i++) ((float *)v.data)[i] = floorf(((float *)v.data)[i] + 0.5f);
-        if (t == PMC_SCALAR_TYPE_F64)
-            for (i = 0; i < v.len; i++) ((double *)v.data)[i] = floor(((double *)v.data)[i] + 0.5);
-        m = extract(&v, 20.5, NULL);
+        for (i = 0; i < v.len; i++) {
+            d[i] = floor(d[i] + 0.5) * scale + shift; /* exact in doubles */
+            store(buf, t, (size_t)i, d[i]);
+            below |= d[i] < edge;
+            above |= d[i] >= edge;
+        }
+        CHECK(below && above);
+        v.data = buf;
+        v.scalar_type = t;
+        m = extract(&v, 20.5 * scale + shift, NULL);
+        mref = extract(&ref, 20.5 * scale + shift, NULL);
+        CHECK(pmc_mesh_triangle_count(mref) > 100);
         CHECK(check_mesh(m, &v, 5));
         CHECK(mesh_is_closed(m));
         if (!meshes_equal(m, mref)) {
@@ -166,10 +180,10 @@ static void test_scalar_types(void) {
             CHECK(0);
         }
         pmc_mesh_free(m);
-        free((void *)v.data);
+        pmc_mesh_free(mref);
+        free(buf);
+        free((void *)ref.data);
     }
-    pmc_mesh_free(mref);
-    free((void *)ref.data);
 }
 
 /* A volume embedded with padding and permuted strides reads the same. */
@@ -212,8 +226,13 @@ static void test_strides(void) {
     free((void *)v.data);
 }
 
+static int cmp_point_bytes(const void *a, const void *b) {
+    return memcmp(a, b, 3 * sizeof(double));
+}
+
 /* Two pieces sharing the layer k = 10 produce bit-identical points on it,
  * equal to those of the whole volume. */
+
 static void test_pieces(void) {
     const uint64_t n = 20, cut = 10;
     pmc_volume whole = make_sphere(n, PMC_SCALAR_TYPE_F32, 1.0), lo = whole, hi = whole;
@@ -264,7 +283,25 @@ static void test_pieces(void) {
     CHECK(on_lo > 0);
     CHECK(on_lo == on_hi);
     CHECK(matched == on_lo);
-    (void)i;
+    /* Every point of either piece is, bit for bit, a point of the whole
+     * volume's mesh (points sorted by their bytes, then searched). */
+    {
+        uint64_t nw = pmc_mesh_point_count(mw), missing = 0, k;
+        double *sorted = (double *)malloc((size_t)(3 * nw) * sizeof *sorted);
+        const pmc_mesh *piece[2];
+        piece[0] = ml;
+        piece[1] = mh;
+        memcpy(sorted, pmc_mesh_points(mw), (size_t)(3 * nw) * sizeof *sorted);
+        qsort(sorted, (size_t)nw, 3 * sizeof *sorted, cmp_point_bytes);
+        for (k = 0; k < 2; k++) {
+            const double *pp = pmc_mesh_points(piece[k]);
+            for (i = 0; i < pmc_mesh_point_count(piece[k]); i++)
+                missing += bsearch(pp + 3 * i, sorted, (size_t)nw, 3 * sizeof *sorted,
+                                   cmp_point_bytes) == NULL;
+        }
+        CHECK(nw > 0 && missing == 0);
+        free(sorted);
+    }
     pmc_mesh_free(mw);
     pmc_mesh_free(ml);
     pmc_mesh_free(mh);
