@@ -239,4 +239,56 @@ mod tests {
             std::thread::yield_now();
         }
     }
+
+    /// The process's virtual memory size (KiB).
+    fn vm_size_kib() -> u64 {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let line = status.lines().find(|l| l.starts_with("VmSize:")).unwrap();
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    }
+
+    /// Run alone in a process of its own by
+    /// `dropped_threads_give_back_their_stacks` (other tests' memory would
+    /// blur the count).
+    #[test]
+    #[ignore = "run in a process of its own by dropped_threads_give_back_their_stacks"]
+    fn dropped_threads_give_back_their_stacks_alone() {
+        // A finished thread whose handle is dropped (detached) gives its
+        // stack back (glibc keeps a few for reuse); one never detached
+        // keeps its stack mapped for ever: 64 of them, 512 MiB.
+        let start = std::time::Instant::now();
+        let mut before = 0;
+        for i in 0..65 {
+            let t = OsThread::spawn("pmc-test", || {}).unwrap();
+            while !t.is_finished() {
+                assert!(start.elapsed().as_secs() < 30, "a thread never finished");
+                std::thread::yield_now();
+            }
+            drop(t);
+            if i == 0 {
+                before = vm_size_kib();
+            }
+        }
+        let grown = vm_size_kib().saturating_sub(before);
+        assert!(
+            grown < 128 << 10,
+            "64 dropped threads left {grown} KiB mapped"
+        );
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn dropped_threads_give_back_their_stacks() {
+        let name = "os_thread::tests::dropped_threads_give_back_their_stacks_alone";
+        let out = std::process::Command::new(std::env::current_exe().unwrap())
+            .args(["--ignored", "--exact", name, "--test-threads=1"])
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && stdout.contains("1 passed"),
+            "{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
 }
