@@ -1257,6 +1257,30 @@ def test_a_source_without_a_whole_extent_is_contoured(props):
     assert all("reports no whole extent" in w for w in observer.warnings)
 
 
+def piece_asked(info, image):
+    """The extent of the piece an output information asks for, without ghost
+    levels, as vtkExtentTranslator cuts `image` in block mode."""
+    from vtkmodules.vtkCommonExecutionModel import (vtkExtentTranslator,
+                                                    vtkStreamingDemandDrivenPipeline as sddp)
+
+    extent = [0] * 6
+    vtkExtentTranslator().PieceToExtentThreadSafe(
+        info.Get(sddp.UPDATE_PIECE_NUMBER()), info.Get(sddp.UPDATE_NUMBER_OF_PIECES()), 0,
+        image.GetExtent(), extent, vtkExtentTranslator.BLOCK_MODE, 0)
+    return extent
+
+
+def crop(image, extent):
+    """`image` cut to `extent`."""
+    from vtkmodules.vtkImagingCore import vtkExtractVOI
+
+    voi = vtkExtractVOI()
+    voi.SetInputData(image)
+    voi.SetVOI(extent)
+    voi.Update()
+    return voi.GetOutput()
+
+
 def test_pieces_without_the_ghost_layer_asked_for_warn():
     # A source with a whole extent that delivers each piece as asked but
     # without the ghost layer asked with it (and no ghost array): the
@@ -1266,9 +1290,7 @@ def test_pieces_without_the_ghost_layer_asked_for_warn():
     # it.
     from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
     from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkCommonExecutionModel import (vtkExtentTranslator,
-                                                    vtkStreamingDemandDrivenPipeline as sddp)
-    from vtkmodules.vtkImagingCore import vtkExtractVOI
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
 
     image = wavelet(8)
 
@@ -1285,16 +1307,8 @@ def test_pieces_without_the_ghost_layer_asked_for_warn():
 
         def RequestData(self, request, inInfo, outInfo):
             info = outInfo.GetInformationObject(0)
-            extent = list(info.Get(sddp.UPDATE_EXTENT()))
-            if not self.ghosts:
-                vtkExtentTranslator().PieceToExtentThreadSafe(
-                    info.Get(sddp.UPDATE_PIECE_NUMBER()), info.Get(sddp.UPDATE_NUMBER_OF_PIECES()),
-                    0, image.GetExtent(), extent, vtkExtentTranslator.BLOCK_MODE, 0)
-            voi = vtkExtractVOI()
-            voi.SetInputData(image)
-            voi.SetVOI(extent)
-            voi.Update()
-            vtkImageData.GetData(outInfo).ShallowCopy(voi.GetOutput())
+            extent = info.Get(sddp.UPDATE_EXTENT()) if self.ghosts else piece_asked(info, image)
+            vtkImageData.GetData(outInfo).ShallowCopy(crop(image, extent))
             return 1
 
     source = NoGhosts()  # kept: the pipeline holds no Python reference
@@ -1333,8 +1347,6 @@ def test_pieces_without_a_whole_extent_warn():
     # it was silent.
     from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
     from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkCommonExecutionModel import (vtkExtentTranslator,
-                                                    vtkStreamingDemandDrivenPipeline as sddp)
 
     image = wavelet(8)
 
@@ -1344,18 +1356,7 @@ def test_pieces_without_a_whole_extent_warn():
 
         def RequestData(self, request, inInfo, outInfo):
             info = outInfo.GetInformationObject(0)
-            translator = vtkExtentTranslator()
-            extent = [0] * 6
-            translator.PieceToExtentThreadSafe(info.Get(sddp.UPDATE_PIECE_NUMBER()),
-                                               info.Get(sddp.UPDATE_NUMBER_OF_PIECES()), 0,
-                                               image.GetExtent(), extent,
-                                               vtkExtentTranslator.BLOCK_MODE, 0)
-            from vtkmodules.vtkImagingCore import vtkExtractVOI
-            voi = vtkExtractVOI()
-            voi.SetInputData(image)
-            voi.SetVOI(extent)
-            voi.Update()
-            vtkImageData.GetData(outInfo).ShallowCopy(voi.GetOutput())
+            vtkImageData.GetData(outInfo).ShallowCopy(crop(image, piece_asked(info, image)))
             return 1
 
     source = OwnPieceOnly()  # kept: the pipeline holds no Python reference
