@@ -499,6 +499,14 @@ struct MetaField
   size_t end;
 };
 
+// `t` without the blanks around it (and a line's closing '\r').
+std::string TrimHeaderText(std::string t)
+{
+  t.erase(0, t.find_first_not_of(" \t"));
+  t.erase(t.find_last_not_of(" \t\r") + 1);
+  return t;
+}
+
 // The fields of a MetaImage header, up to ElementDataFile (the last, after
 // which LOCAL data starts), keys and values trimmed.
 std::vector<MetaField> MetaImageFields(const std::string& path)
@@ -515,18 +523,67 @@ std::vector<MetaField> MetaImageFields(const std::string& path)
     {
       continue;
     }
-    const auto trim = [](std::string t) {
-      t.erase(0, t.find_first_not_of(" \t"));
-      t.erase(t.find_last_not_of(" \t\r") + 1);
-      return t;
-    };
-    fields.push_back({ trim(line.substr(0, eq)), trim(line.substr(eq + 1)), consumed });
+    fields.push_back(
+      { TrimHeaderText(line.substr(0, eq)), TrimHeaderText(line.substr(eq + 1)), consumed });
     if (fields.back().key == "ElementDataFile")
     {
       break; // the end of the header
     }
   }
   return fields;
+}
+
+// The fields of a MetaImage header that lay its data out.
+struct MetaImageLayout
+{
+  std::vector<long long> dims; // DimSize
+  long long channels = 1;      // ElementNumberOfChannels
+  int elementSize = 0;         // bytes of an ElementType value; 0: a type of unknown size
+  bool compressed = false;     // CompressedData
+  std::string dataFile;        // ElementDataFile
+  size_t dataOffset = 0;       // just past the ElementDataFile line (LOCAL data, a LIST)
+};
+
+MetaImageLayout ReadMetaImageLayout(const std::string& path)
+{
+  MetaImageLayout layout;
+  for (const MetaField& field : MetaImageFields(path))
+  {
+    std::istringstream values(field.value);
+    if (field.key == "CompressedData")
+    {
+      layout.compressed = field.value == "True" || field.value == "true";
+    }
+    else if (field.key == "DimSize")
+    {
+      long long n;
+      while (values >> n)
+      {
+        layout.dims.push_back(n);
+      }
+    }
+    else if (field.key == "ElementNumberOfChannels")
+    {
+      values >> layout.channels;
+    }
+    else if (field.key == "ElementType")
+    {
+      static const std::pair<const char*, int> sizes[] = { { "MET_CHAR", 1 }, { "MET_UCHAR", 1 },
+        { "MET_SHORT", 2 }, { "MET_USHORT", 2 }, { "MET_INT", 4 }, { "MET_UINT", 4 },
+        { "MET_FLOAT", 4 }, { "MET_LONG_LONG", 8 }, { "MET_ULONG_LONG", 8 },
+        { "MET_DOUBLE", 8 } };
+      for (const auto& size : sizes)
+      {
+        layout.elementSize = field.value == size.first ? size.second : layout.elementSize;
+      }
+    }
+    else if (field.key == "ElementDataFile")
+    {
+      layout.dataFile = field.value;
+      layout.dataOffset = field.end;
+    }
+  }
+  return layout;
 }
 
 void ApplyMetaImageFrame(vtkImageData* volume, const std::string& path)
@@ -1330,30 +1387,24 @@ struct SliceLayout
   int Samples = 0; // per pixel, as the reader counts them (3 for RGB)
   int Signed = 0;  // Pixel Representation
 
-  // The name of the first field in which `other` differs, "" if none.
-  std::string Differs(const SliceLayout& other) const
+  // The fields in order, and their names.
+  std::array<int, 5> Values() const
   {
-    const std::pair<const char*, bool> fields[] = { { "rows", this->Rows != other.Rows },
-      { "columns", this->Columns != other.Columns },
-      { "bits allocated", this->BitsAllocated != other.BitsAllocated },
-      { "samples per pixel", this->Samples != other.Samples },
-      { "pixel representation", this->Signed != other.Signed } };
-    for (const auto& f : fields)
-    {
-      if (f.second)
-      {
-        return f.first;
-      }
-    }
-    return "";
+    return { this->Rows, this->Columns, this->BitsAllocated, this->Samples, this->Signed };
   }
-  int Field(const std::string& name) const
+  static const char* Name(size_t field)
   {
-    return name == "rows" ? this->Rows
-      : name == "columns" ? this->Columns
-      : name == "bits allocated" ? this->BitsAllocated
-      : name == "samples per pixel" ? this->Samples
-      : this->Signed;
+    static const char* const names[] = { "rows", "columns", "bits allocated",
+      "samples per pixel", "pixel representation" };
+    return names[field];
+  }
+  // The first field in which `other` differs, -1 if none.
+  int Differs(const SliceLayout& other) const
+  {
+    const std::array<int, 5> mine = this->Values();
+    const std::array<int, 5> theirs = other.Values();
+    const auto at = std::mismatch(mine.begin(), mine.end(), theirs.begin()).first;
+    return at == mine.end() ? -1 : static_cast<int>(at - mine.begin());
   }
 };
 
@@ -1487,14 +1538,10 @@ void CheckMetaImageHeaderLines(const std::string& path)
   while (std::getline(header, line))
   {
     ++number;
-    const auto trim = [](std::string t) {
-      t.erase(0, t.find_first_not_of(" \t"));
-      t.erase(t.find_last_not_of(" \t\r") + 1);
-      return t;
-    };
     const size_t eq = line.find('=');
-    const std::string key = trim(line.substr(0, eq));
-    const std::string value = eq == std::string::npos ? std::string() : trim(line.substr(eq + 1));
+    const std::string key = TrimHeaderText(line.substr(0, eq));
+    const std::string value =
+      eq == std::string::npos ? std::string() : TrimHeaderText(line.substr(eq + 1));
     if (key.size() > limit || value.size() > limit)
     {
       const bool longKey = key.size() > limit;
@@ -1601,53 +1648,18 @@ void CheckMetaImageFileList(const std::string& path, const std::vector<long long
 // A LIST of files is checked as CheckMetaImageFileList says.
 void CheckMetaImageDataFiles(const std::string& path)
 {
-  std::vector<long long> dims;
-  std::string dataFile;
-  size_t listOffset = 0;
-  unsigned long long elementBytes = 0;
-  unsigned long long channels = 1;
-  bool compressed = false;
-  for (const MetaField& field : MetaImageFields(path))
-  {
-    std::istringstream values(field.value);
-    if (field.key == "DimSize")
-    {
-      long long n;
-      while (values >> n)
-      {
-        dims.push_back(n);
-      }
-    }
-    else if (field.key == "ElementNumberOfChannels")
-    {
-      values >> channels;
-    }
-    else if (field.key == "CompressedData")
-    {
-      compressed = field.value == "True" || field.value == "true";
-    }
-    else if (field.key == "ElementType")
-    {
-      static const std::pair<const char*, int> sizes[] = { { "MET_CHAR", 1 }, { "MET_UCHAR", 1 },
-        { "MET_SHORT", 2 }, { "MET_USHORT", 2 }, { "MET_INT", 4 }, { "MET_UINT", 4 },
-        { "MET_FLOAT", 4 }, { "MET_LONG_LONG", 8 }, { "MET_ULONG_LONG", 8 },
-        { "MET_DOUBLE", 8 } };
-      for (const auto& s : sizes)
-      {
-        elementBytes = field.value == s.first ? s.second : elementBytes;
-      }
-    }
-    else if (field.key == "ElementDataFile")
-    {
-      dataFile = field.value;
-      listOffset = field.end;
-    }
-  }
+  const MetaImageLayout layout = ReadMetaImageLayout(path);
+  const std::vector<long long>& dims = layout.dims;
+  const std::string& dataFile = layout.dataFile;
   if (dims.size() >= 2 && dataFile.compare(0, 4, "LIST") == 0)
   {
     // Bytes of one element; 0 (an unknown type) checks no file's size.
-    CheckMetaImageFileList(path, dims, dataFile, listOffset,
-      channels >= 1 && channels < (1ULL << 20) ? elementBytes * channels : 0, compressed);
+    const long long channels = layout.channels;
+    CheckMetaImageFileList(path, dims, dataFile, layout.dataOffset,
+      channels >= 1 && channels < (1LL << 20)
+        ? static_cast<unsigned long long>(layout.elementSize) * channels
+        : 0,
+      layout.compressed);
     return;
   }
   if (dims.empty() || dims.back() < 1 || dataFile.find('%') == std::string::npos)
@@ -1724,50 +1736,13 @@ void CheckMetaImageDataFiles(const std::string& path)
 // named by ElementDataFile) and element types of a known size.
 void CheckMetaImageCompressedSize(const std::string& path)
 {
-  bool compressed = false;
-  std::vector<long long> dims;
-  long long channels = 1;
-  int elementSize = 0;
-  std::string dataFile;
-  size_t dataOffset = 0; // of LOCAL data in the header's file
-  for (const MetaField& field : MetaImageFields(path))
-  {
-    const std::string& key = field.key;
-    const std::string& value = field.value;
-    std::istringstream values(value);
-    if (key == "CompressedData")
-    {
-      compressed = value == "True" || value == "true";
-    }
-    else if (key == "DimSize")
-    {
-      long long n;
-      while (values >> n)
-      {
-        dims.push_back(n);
-      }
-    }
-    else if (key == "ElementNumberOfChannels")
-    {
-      values >> channels;
-    }
-    else if (key == "ElementType")
-    {
-      static const std::pair<const char*, int> sizes[] = { { "MET_CHAR", 1 }, { "MET_UCHAR", 1 },
-        { "MET_SHORT", 2 }, { "MET_USHORT", 2 }, { "MET_INT", 4 }, { "MET_UINT", 4 },
-        { "MET_FLOAT", 4 }, { "MET_LONG_LONG", 8 }, { "MET_ULONG_LONG", 8 },
-        { "MET_DOUBLE", 8 } };
-      for (const auto& s : sizes)
-      {
-        elementSize = value == s.first ? s.second : elementSize;
-      }
-    }
-    else if (key == "ElementDataFile")
-    {
-      dataFile = value;
-      dataOffset = field.end;
-    }
-  }
+  const MetaImageLayout layout = ReadMetaImageLayout(path);
+  const bool compressed = layout.compressed;
+  const std::vector<long long>& dims = layout.dims;
+  const long long channels = layout.channels;
+  const int elementSize = layout.elementSize;
+  const std::string& dataFile = layout.dataFile;
+  const size_t dataOffset = layout.dataOffset; // of LOCAL data in the header's file
   if (!compressed || elementSize == 0 || dims.empty() || channels < 1 || dataFile.empty() ||
     dataFile == "LIST" || dataFile.find('%') != std::string::npos ||
     dataFile.find(' ') != std::string::npos)
@@ -2242,7 +2217,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     for (size_t i = 0; i < layouts.size(); ++i)
     {
       const size_t count = static_cast<size_t>(std::count_if(layouts.begin(), layouts.end(),
-        [&](const SliceLayout& l) { return l.Differs(layouts[i]).empty(); }));
+        [&](const SliceLayout& l) { return l.Differs(layouts[i]) < 0; }));
       if (count > commonCount)
       {
         common = i;
@@ -2251,12 +2226,12 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     }
     for (size_t i = 0; i < layouts.size(); ++i)
     {
-      const std::string field = layouts[common].Differs(layouts[i]);
-      if (!field.empty())
+      const int field = layouts[common].Differs(layouts[i]);
+      if (field >= 0)
       {
-        Unreadable(path, "its file '" + taken[i] + "' has " + field + " " +
-            std::to_string(layouts[i].Field(field)) + " where the series' other slices (as '" +
-            taken[common] + "') have " + std::to_string(layouts[common].Field(field)) +
+        Unreadable(path, "its file '" + taken[i] + "' has " + SliceLayout::Name(field) + " " +
+            std::to_string(layouts[i].Values()[field]) + " where the series' other slices (as '" +
+            taken[common] + "') have " + std::to_string(layouts[common].Values()[field]) +
             ": VTK's reader would read it into the volume as garbage (a slice of another "
             "series, as a localizer, mixed in?)");
       }
@@ -2275,12 +2250,13 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
       volume.Rows = ext[3] - ext[2] + 1;
       volume.BitsAllocated = 8 * vtkDataArray::GetDataTypeSize(vtkImageData::GetScalarType(info));
       volume.Samples = vtkImageData::GetNumberOfScalarComponents(info);
-      const std::string field = volume.Differs(layouts[common]);
-      if (!field.empty())
+      const int field = volume.Differs(layouts[common]);
+      if (field >= 0)
       {
-        Unreadable(path, "its series' slices (as '" + taken[common] + "') have " + field + " " +
-            std::to_string(layouts[common].Field(field)) + " where VTK's reader lays the "
-            "volume out with " + std::to_string(volume.Field(field)) + ", from another file "
+        Unreadable(path, "its series' slices (as '" + taken[common] + "') have " +
+            SliceLayout::Name(field) + " " + std::to_string(layouts[common].Values()[field]) +
+            " where VTK's reader lays the volume out with " +
+            std::to_string(volume.Values()[field]) + ", from another file "
             "in the directory: it would read them as garbage (several series of different "
             "sizes in one directory?)");
       }
