@@ -288,7 +288,8 @@ fn extract_in_slabs(
     let Some((samples, iso, factors)) =
         crate::magnitude::scaled_copy(volume, isovalue, &mut progress)?
     else {
-        // (Only that cell is extreme: contoured as it is, unscaled.)
+        // (Only that cell is extreme, or the samples span too many orders
+        // of magnitude for an exact copy: contoured as they are, unscaled.)
         return crate::volume::with_grid!(volume, |grid| run(
             grid,
             volume,

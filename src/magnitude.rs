@@ -63,9 +63,14 @@ pub(crate) type Scaled = (Vec<f64>, f64, [f64; 2]);
 /// A copy of an `f64` volume's samples times a power of two, the
 /// isovalue times the same and the power of two (as the two factors of
 /// [`factors`], applied one after the other), when the largest magnitude among the finite
-/// samples and the isovalue lies outside `[2^-256, 2^256]` (and is not 0);
-/// `None` otherwise (other types never come near: `f32` stays below 2^128,
-/// 64-bit integers below 2^64). NaN and infinite samples stay as they are.
+/// samples and the isovalue lies outside `[2^-256, 2^256]` (and is not 0)
+/// and every finite sample and the isovalue scale exactly; `None`
+/// otherwise (other types never come near: `f32` stays below 2^128,
+/// 64-bit integers below 2^64). An inexact copy would not be the data:
+/// a tiny sample rounded to -0 counts as above an isovalue of 0, and a
+/// piece of the volume without the largest value, scaled less or not at
+/// all, would put points on a shared layer differently. NaN and infinite
+/// samples stay as they are.
 /// `progress` is told 0 after each layer of samples read (a large volume
 /// takes a while to read), and may stop the call ([`Error::Aborted`]).
 pub(crate) fn scaled_copy(
@@ -96,6 +101,14 @@ pub(crate) fn scaled_copy(
         return Ok(None);
     }
     let [a, b] = factors(m);
+    // Exact unless a value falls below the normal range on the way down
+    // (data spanning some 1500 binary orders, a huge sentinel beside tiny
+    // values): dividing back by the factors then misses it.
+    let exact = |v: f64, w: f64| !v.is_finite() || w / a / b == v;
+    let scaled_iso = iso * a * b;
+    if !exact(iso, scaled_iso) {
+        return Ok(None);
+    }
     let n = nx * ny * nz;
     let mut out = Vec::new();
     out.try_reserve_exact(n)
@@ -103,11 +116,16 @@ pub(crate) fn scaled_copy(
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
-                out.push(grid.get(i, j, k) * a * b);
+                let v = grid.get(i, j, k);
+                let w = v * a * b;
+                if !exact(v, w) {
+                    return Ok(None);
+                }
+                out.push(w);
             }
         }
     }
-    Ok(Some((out, iso * a * b, [a, b])))
+    Ok(Some((out, scaled_iso, [a, b])))
 }
 
 #[cfg(test)]

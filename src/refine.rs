@@ -795,8 +795,14 @@ pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
 }
 
 impl<F: ReconstructionFilter> Refiner<'_, F> {
-    /// Tests one sample point of a triangle whose longest edge is `reach`
-    /// long; returns the relocated point if it must split.
+    /// Tests the centre `p` of a triangle whose longest edge is `reach`
+    /// long; returns the relocated point if it must split. A point on a
+    /// cell face is refused: its edges to the triangle's corners on that
+    /// face would lie flat in it, where the neighbour's patch can make the
+    /// same edges (an edge in four triangles). Rule A2 clamps its
+    /// candidate into the cell, onto a face at times, and a smooth
+    /// filter's gradient lies in the face there when the data is mirror
+    /// symmetric about it, so the projection stays in the face.
     fn test(&mut self, p: DVec3, fixed: u8, reach: f64) -> Option<DVec3> {
         let s = sample::<F>(
             self.cell,
@@ -809,6 +815,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         );
         self.count(&s);
         s.split
+            .filter(|q| q.cmpgt(DVec3::ZERO).all() && q.cmplt(DVec3::ONE).all())
     }
 
     fn count(&mut self, s: &Sample) {

@@ -1968,6 +1968,104 @@ fn centroid_rules_keep_a_generic_cell_manifold() {
     report(failures);
 }
 
+/// An `f64` volume whose magnitudes span too many binary orders for one
+/// exact scaling (a huge sample beside tiny ones) is contoured as it is.
+/// The scaled copy made for its extreme cells rounded the tiny samples to
+/// subnormals or -0, which counted as above an isovalue of 0 (the whole
+/// surface vanished), and a piece of the volume holding the huge sample
+/// put points on the layer it shares with its neighbour unlike that
+/// neighbour. Plain Marching Cubes: a small bump's surface is the one it
+/// has alone, bit for bit, whatever huge bump lies elsewhere, and two
+/// pieces agree on their shared layer. Refined: the mesh stays a closed
+/// manifold with the small bump's surface in it (one scale cannot suit
+/// both bumps: see Limitations in the README).
+#[test]
+fn samples_spanning_too_many_magnitudes_are_not_rounded_by_a_scaled_copy() {
+    let dims = [8usize, 4, 4];
+    let idx = |i: usize, j: usize, k: usize| i + dims[0] * (j + dims[1] * k);
+    let mut failures = Vec::new();
+    for tiny in [1e-300, 1e-200, 1e-20, 1e-10] {
+        for huge in [1e300, 1e200, 1e100] {
+            let mut small_only = vec![-tiny; 128];
+            // A small bump across x = 3 of values about `tiny`.
+            for k in 1..3 {
+                for j in 1..3 {
+                    for i in 2..5 {
+                        small_only[idx(i, j, k)] = (1.0 + 0.1 * (i + 2 * j + 3 * k) as f64) * tiny;
+                    }
+                }
+            }
+            let mut both = small_only.clone();
+            both[idx(6, 2, 2)] = huge;
+            for max_level in [0, 3] {
+                let opts = Options {
+                    threads: 1,
+                    ..refine_opts(Topology::Trilinear, Rule::A1, 0.01, max_level)
+                };
+                let alone = extract(&Volume::new(&small_only, [8, 4, 4]), 0.0, &opts).unwrap();
+                let whole = extract(&Volume::new(&both, [8, 4, 4]), 0.0, &opts).unwrap();
+                let bits = |m: &Mesh| {
+                    let mut p: Vec<[u64; 3]> = m
+                        .index_points
+                        .iter()
+                        .filter(|p| p[0] < 5.0)
+                        .map(|p| p.map(|c| (c + 0.0).to_bits()))
+                        .collect();
+                    p.sort_unstable();
+                    p
+                };
+                let c = check_mesh(&whole);
+                let same = max_level > 0 || bits(&alone) == bits(&whole);
+                if alone.triangles.is_empty()
+                    || bits(&whole).is_empty()
+                    || !same
+                    || !c.is_closed_oriented_manifold()
+                {
+                    failures.push(format!(
+                        "tiny {tiny:e} huge {huge:e} level {max_level}: {} triangles alone, {} \
+                         with the huge bump, same small bump {}, {c:?}",
+                        alone.triangles.len(),
+                        whole.triangles.len(),
+                        bits(&alone) == bits(&whole)
+                    ));
+                }
+                // Two pieces sharing the layer x = 3, the huge sample in
+                // the upper one only.
+                let s = [1i64, dims[0] as i64, (dims[0] * dims[1]) as i64];
+                let lo = Volume::new(&both, [4, 4, 4]).with_strides(s);
+                let hi = Volume::new(&both, [5, 4, 4])
+                    .with_strides(s)
+                    .with_offset(3)
+                    .with_index_offset([3, 0, 0]);
+                let layer = |m: &Mesh| {
+                    let mut p: Vec<[u64; 3]> = m
+                        .index_points
+                        .iter()
+                        .filter(|p| p[0] == 3.0)
+                        .map(|p| p.map(|c| (c + 0.0).to_bits()))
+                        .collect();
+                    p.sort_unstable();
+                    p
+                };
+                let (a, b) = (
+                    extract(&lo, 0.0, &opts).unwrap(),
+                    extract(&hi, 0.0, &opts).unwrap(),
+                );
+                if max_level == 0 && (layer(&a).is_empty() || layer(&a) != layer(&b)) {
+                    failures.push(format!(
+                        "tiny {tiny:e} huge {huge:e} level {max_level}: pieces' shared layer \
+                         {} / {} points, equal {}",
+                        layer(&a).len(),
+                        layer(&b).len(),
+                        layer(&a) == layer(&b)
+                    ));
+                }
+            }
+        }
+    }
+    report(failures);
+}
+
 /// Normals do not depend on the scale of the data. Samples near float64's
 /// largest values overflowed the gradient's differences (1e308 - -1e308),
 /// which left every normal (0, 0, 0); the direction is now the one of the
