@@ -39,16 +39,35 @@ std::string Lower(std::string text)
 
 double ParseDouble(const std::string& option, const std::string& text)
 {
+  // strtod skips leading blanks and reads hexadecimal ("0x10" is 16): a
+  // number is written in decimal and nothing else, as ParseCount wants
+  // its digits (" 0.1" was accepted where "0.1 " was refused).
+  const size_t digits = text.find_first_not_of("+-");
+  if (!text.empty() && std::isspace(static_cast<unsigned char>(text[0])))
+  {
+    Usage(option + ": '" + text + "' is not a finite number");
+  }
+  if (digits != std::string::npos && text.size() > digits + 1 && text[digits] == '0' &&
+    (text[digits + 1] == 'x' || text[digits + 1] == 'X'))
+  {
+    Usage(option + ": '" + text + "' is not a decimal number");
+  }
   const char* begin = text.c_str();
   char* end = nullptr;
   errno = 0;
   double value = std::strtod(begin, &end);
-  // ERANGE also flags underflow (1e-310 is read as a subnormal or 0, a
-  // usable value): only overflow, read as +-HUGE_VAL, is refused.
+  // ERANGE flags overflow (read as +-HUGE_VAL) and underflow: 1e-310 is
+  // read as a subnormal, a usable value, but below the least subnormal
+  // (about 4.9e-324) the number becomes 0, which for --epsilon means no
+  // refinement at all: the opposite of what a tiny epsilon asks for.
   const bool overflow = errno == ERANGE && std::fabs(value) >= HUGE_VAL;
   if (text.empty() || end != begin + text.size() || overflow || !std::isfinite(value))
   {
     Usage(option + ": '" + text + "' is not a finite number");
+  }
+  if (errno == ERANGE && value == 0.0)
+  {
+    Usage(option + ": '" + text + "' underflows to 0");
   }
   return value;
 }

@@ -2558,6 +2558,32 @@ def no_progress_bar_when_not_a_terminal():
     expect(r.stderr == "", "stderr written")
 
 
+@check
+def numbers_are_decimal_and_do_not_underflow_to_0():
+    """A number below the least subnormal double (1e-330) was read as 0:
+    --epsilon 1e-330 ran plain Marching Cubes, exit status 0. Refused, as
+    are hexadecimal numbers and leading blanks (as for the counts)."""
+    d = fresh_dir("numbers")
+    out = os.path.join(d, "o.vtp")
+    for args, fragment in (
+            (["--epsilon", "1e-330"], "--epsilon: '1e-330' underflows to 0"),
+            (["--epsilon", "-1e-400"], "--epsilon: '-1e-400' underflows to 0"),
+            (["-v", "1e-400"], "-v: '1e-400' underflows to 0"),
+            (["--epsilon", " 0.1"], "--epsilon: ' 0.1' is not a finite number"),
+            (["-v", "\t50"], "is not a finite number"),
+            (["--epsilon", "0x10"], "--epsilon: '0x10' is not a decimal number"),
+            (["-v", "0x32"], "-v: '0x32' is not a decimal number"),
+            (["-v", "-0X1p5"], "is not a decimal number")):
+        try:
+            expect_error(["--sample", "tube", "-o", out, *args], fragment, outputs=[out],
+                         status=2)
+        except Failure as e:
+            raise Failure(f"{args}: {e}")
+    # Zero however written, and a subnormal, are numbers.
+    ok("--sample", "tube", "-q", "--epsilon", "0e-400")
+    ok("--sample", "tube", "-q", "--epsilon", "5e-324")
+
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
