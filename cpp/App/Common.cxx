@@ -250,6 +250,19 @@ std::string Extension(const std::string& path)
   return name.substr(dot);
 }
 
+std::string OnlyExtension(const std::string& path)
+{
+  const std::string name = FileNameOf(path);
+  if (name.size() < 2 || name[0] != '.' || name.find('.', 1) != std::string::npos)
+  {
+    return std::string();
+  }
+  std::string ext = name;
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext;
+}
+
 std::string WithSuffix(const std::string& path, const std::string& suffix)
 {
   std::string ext = Extension(path);
@@ -314,9 +327,16 @@ void CheckWritable(const std::string& given, const std::string& what)
     throw Error("cannot write " + what + " " + named + ": it is a directory");
   }
   std::string dir = DirectoryOf(path);
-  if (!IsDirectory(dir))
+  struct stat dirStat;
+  if (stat(dir.c_str(), &dirStat) != 0)
   {
-    throw Error("cannot write " + what + " " + named + ": directory '" + dir + "' does not exist");
+    throw Error("cannot write " + what + " " + named + ": directory '" + dir + "' " +
+      (errno == ENOTDIR ? "cannot be reached: a component of its path is not a directory"
+                        : "does not exist"));
+  }
+  if (!S_ISDIR(dirStat.st_mode))
+  {
+    throw Error("cannot write " + what + " " + named + ": '" + dir + "' is not a directory");
   }
   if (access(dir.c_str(), W_OK) != 0)
   {
@@ -425,6 +445,21 @@ std::string BestError(const std::vector<std::string>& errors)
     }
   }
   return std::string();
+}
+
+std::string ForUser(std::string why, const std::string& tmp, const std::string& path)
+{
+  const size_t deleting = why.find("; deleting file");
+  if (deleting != std::string::npos)
+  {
+    why.erase(deleting);
+  }
+  for (size_t at = why.find(tmp); !tmp.empty() && at != std::string::npos;
+       at = why.find(tmp, at + path.size()))
+  {
+    why.replace(at, tmp.size(), path);
+  }
+  return why;
 }
 
 void CommitFile(const std::string& tmp, const std::string& path)

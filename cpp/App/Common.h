@@ -56,7 +56,14 @@ std::string FileNameOf(const std::string& path);
 
 // Lower-case extension of a file name, with the double extension ".nii.gz"
 // and ".tar.gz" kept whole: "a/B.NII.GZ" -> ".nii.gz", "a/b" -> "".
+// A name that starts with its only dot (a hidden file: ".png") has none.
 std::string Extension(const std::string& path);
+
+// For a name that is only an extension ("out/.PNG": no base, only the
+// dot and the extension), that extension in lower case (".png"); else "".
+// Extension() gives "" for it, which callers would word as a wrong
+// extension.
+std::string OnlyExtension(const std::string& path);
 
 // The file name with "-<suffix>" inserted before its extension.
 std::string WithSuffix(const std::string& path, const std::string& suffix);
@@ -92,6 +99,12 @@ std::string TemporaryPathFor(const std::string& path);
 // none but the pipeline's own "returned failure for request" dump, which
 // says nothing of the cause (the writer's error code may).
 std::string BestError(const std::vector<std::string>& errors);
+
+// A writer's error message as the user should read it: the temporary
+// file's name (tmp) replaced by the output's (path), and vtkSTLWriter's
+// "; deleting file: <tmp>" dropped (the temporary is removed, the file at
+// path kept).
+std::string ForUser(std::string why, const std::string& tmp, const std::string& path);
 
 // Renames tmp onto path; removes tmp and throws Error on failure.
 void CommitFile(const std::string& tmp, const std::string& path);

@@ -2187,7 +2187,15 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
   }
   else
   {
-    Unreadable(path, "no such file or directory");
+    // A FIFO or a device exists: it is no volume file (reading a FIFO
+    // would wait for a writer).
+    struct stat st;
+    if (stat(path.c_str(), &st) == 0)
+    {
+      Unreadable(path, "not a regular file (nor a directory of DICOM files)");
+    }
+    Unreadable(path, errno == ENOENT ? std::string("no such file or directory")
+                                     : std::string(std::strerror(errno)));
   }
 
   vtkImageData* image = nullptr;
@@ -2679,6 +2687,11 @@ bool CompleteObj(const std::string& file, vtkPolyData* surface)
 
 void CheckSurfaceFormat(const std::string& path)
 {
+  const std::string only = OnlyExtension(path);
+  if (IsSurfaceExtension(only))
+  {
+    throw Error("'" + path + "' has no base name, only the extension " + only, 2);
+  }
   if (!IsSurfaceExtension(Extension(path)))
   {
     throw Error("unknown output format '" + path + "' (known: " + SurfaceExtensions + ")", 2);
@@ -2770,7 +2783,7 @@ void WriteSurface(
         ? vtkErrorCode::GetStringFromErrorCode(writer->GetErrorCode())
         : "the writer failed";
     }
-    throw Error("cannot write '" + path + "': " + why);
+    throw Error("cannot write '" + path + "': " + ForUser(why, file, path));
   }
 }
 

@@ -309,6 +309,10 @@ Options ParseArguments(int argc, char* argv[])
     else if (name == "--write-volume")
     {
       o.WriteVolume = value();
+      if (OnlyExtension(o.WriteVolume) == ".vti")
+      {
+        Usage("--write-volume: '" + o.WriteVolume + "' has no base name, only the extension .vti");
+      }
       if (Extension(o.WriteVolume) != ".vti")
       {
         Usage("--write-volume writes VTK XML image data: '" + o.WriteVolume +
@@ -355,6 +359,10 @@ Options ParseArguments(int argc, char* argv[])
   }
   for (const std::string* png : { &o.Compare, &o.Distance })
   {
+    if (!png->empty() && OnlyExtension(*png) == ".png")
+    {
+      Usage("'" + *png + "' has no base name, only the extension .png");
+    }
     if (!png->empty() && Extension(*png) != ".png")
     {
       Usage("pictures are written as PNG: '" + *png + "' does not end in .png");

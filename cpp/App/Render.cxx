@@ -214,7 +214,7 @@ void SavePNG(vtkRenderWindow* window, const std::string& png, const std::string&
   {
     RemoveFile(file);
     throw Error("cannot write picture '" + png + "'" +
-      (errors.empty() ? std::string() : ": " + errors.front()));
+      (errors.empty() ? std::string() : ": " + ForUser(errors.front(), file, png)));
   }
 }
 

@@ -588,7 +588,7 @@ int main(int argc, char* argv[])
               ? vtkErrorCode::GetStringFromErrorCode(writer->GetErrorCode())
               : "the writer failed";
           }
-          throw Error("cannot write the volume '" + path + "': " + why);
+          throw Error("cannot write the volume '" + path + "': " + pmcapp::ForUser(why, tmp, path));
         }
       }
       if (!output.empty())

@@ -10,6 +10,7 @@ import math
 import os
 import re
 import shutil
+import stat
 import struct
 import subprocess
 import sys
@@ -2582,6 +2583,60 @@ def numbers_are_decimal_and_do_not_underflow_to_0():
     # Zero however written, and a subnormal, are numbers.
     ok("--sample", "tube", "-q", "--epsilon", "0e-400")
     ok("--sample", "tube", "-q", "--epsilon", "5e-324")
+
+
+def tmp_files(d):
+    return [f for f in os.listdir(d) if ".tmp" in f]
+
+
+def make_node(path, kind, device=None):
+    """A FIFO, or a character device node with the numbers of `device`
+    (major, minor), in the scratch directory; Skipped where mknod is not
+    permitted."""
+    try:
+        if kind == "fifo":
+            os.mkfifo(path)
+        else:
+            os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(*device))
+    except (PermissionError, OSError) as e:
+        raise Skipped(f"cannot make a {kind} node in the scratch directory: {e}")
+
+
+@check
+def messages_name_what_is_wrong():
+    """A FIFO or device as input was 'no such file or directory'; an output
+    in a 'directory' that is a file said it does not exist; a name that is
+    only an extension ('.png') was said not to end in it; the STL writer's
+    full-disk message named the tool's temporary file."""
+    d = fresh_dir("messages")
+    fifo = os.path.join(d, "f.vti")
+    make_node(fifo, "fifo")
+    expect_error([fifo], f"cannot read '{fifo}': not a regular file")
+    afile = os.path.join(d, "afile")
+    open(afile, "w").close()
+    target = os.path.join(afile, "x.vtp")
+    expect_error(["--sample", "tube", "-o", target], f"'{afile}' is not a directory")
+    for args, fragment in (
+            (["--compare", os.path.join(d, ".png")], f"'{d}/.png' has no base name"),
+            (["--distance", os.path.join(d, ".PNG")], "no base name, only the extension .png"),
+            (["--write-volume", os.path.join(d, ".vti")], f"'{d}/.vti' has no base name"),
+            (["-o", os.path.join(d, ".vtp")], f"'{d}/.vtp' has no base name"),
+            (["-o", os.path.join(d, ".stl")], "only the extension .stl")):
+        try:
+            expect_error(["--sample", "tube", *args], fragment, status=2)
+        except Failure as e:
+            raise Failure(f"{args}: {e}")
+    stl = os.path.join(d, "o.stl")
+    r = limited_run(8, "--sample", "tube", "--epsilon", "0", "-q", "-o", stl)
+    lines = r.stderr.splitlines()
+    expect(r.returncode == 1 and len(lines) == 1 and
+           lines[0].startswith(f"precisemc: error: cannot write '{stl}'") and
+           ".tmp" not in lines[0], f"full STL: exit status {r.returncode}, stderr {r.stderr!r}")
+    device = os.path.join(d, "zero")
+    make_node(device, "char", (1, 5))
+    os.symlink(device, os.path.join(d, "z.vti"))
+    expect_error([os.path.join(d, "z.vti")], "not a regular file")
+    expect(sorted(os.listdir(d)) == ["afile", "f.vti", "z.vti", "zero"], os.listdir(d))
 
 
 def main():
