@@ -37,6 +37,15 @@ std::vector<std::string> CapturedWarnings;
 constexpr int MaxPending = 256;
 char* volatile PendingNames[MaxPending];
 
+// The signals whose default action kills the tool and that it catches to
+// remove its temporaries first (SIGKILL cannot be caught; SIGXFSZ is
+// ignored in main(), a write past the limit then fails with EFBIG and is
+// reported). SIGPIPE: output piped into a reader that quits early (| head);
+// SIGXCPU: a soft CPU time limit (prlimit --cpu); SIGALRM, SIGVTALRM,
+// SIGPROF: timers (timeout -s ALRM); SIGUSR1, SIGUSR2: sent by hand.
+const int CleanupSignals[] = { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXCPU, SIGALRM,
+  SIGVTALRM, SIGPROF, SIGUSR1, SIGUSR2 };
+
 void RemovePendingAndDie(int sig)
 {
   for (int i = 0; i < MaxPending; ++i)
@@ -364,7 +373,7 @@ void CheckWritable(const std::string& given, const std::string& what)
   // left it behind.
   sigset_t block, previous;
   sigemptyset(&block);
-  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE })
+  for (int sig : CleanupSignals)
   {
     sigaddset(&block, sig);
   }
@@ -486,8 +495,7 @@ void RemoveFile(const std::string& path)
 
 PendingFiles::PendingFiles()
 {
-  // SIGPIPE too: output piped into a reader that quits early (| head).
-  for (int sig : { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE })
+  for (int sig : CleanupSignals)
   {
     struct sigaction action = {};
     action.sa_handler = RemovePendingAndDie;

@@ -116,8 +116,9 @@ void RemoveFile(const std::string& path);
 // and renamed onto it by Commit() only once the whole run has succeeded:
 // a failure late in the run (a picture, the last sample) must not leave
 // the earlier outputs behind. The destructor removes the temporaries not
-// committed, and so does an interrupt (SIGINT, SIGTERM, SIGHUP, SIGQUIT)
-// before the tool dies of it.
+// committed, and so does a signal that kills the tool (SIGINT, SIGTERM,
+// SIGHUP, SIGQUIT, SIGPIPE, SIGXCPU, SIGALRM, SIGVTALRM, SIGPROF,
+// SIGUSR1, SIGUSR2) before the tool dies of it.
 class PendingFiles
 {
 public:

@@ -28,6 +28,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <limits>
@@ -358,6 +359,11 @@ std::string Seconds(double s)
 
 int main(int argc, char* argv[])
 {
+  // Past a file size limit (ulimit -f) a write raises SIGXFSZ, whose
+  // default action killed the tool half-way through a file, its temporary
+  // left behind. Ignored, the write fails with EFBIG instead, reported as
+  // a full disk is (the old file kept, the temporaries removed).
+  std::signal(SIGXFSZ, SIG_IGN);
   pmcapp::CaptureVTKMessages();
   try
   {

@@ -10,6 +10,7 @@ import math
 import os
 import re
 import shutil
+import signal
 import stat
 import struct
 import subprocess
@@ -2637,6 +2638,68 @@ def messages_name_what_is_wrong():
     os.symlink(device, os.path.join(d, "z.vti"))
     expect_error([os.path.join(d, "z.vti")], "not a regular file")
     expect(sorted(os.listdir(d)) == ["afile", "f.vti", "z.vti", "zero"], os.listdir(d))
+
+
+def shell_run(script, *args, stdout=subprocess.PIPE):
+    """The tool run by `exec "$0" "$@"` at the end of a shell script (its
+    redirections and traps apply to it)."""
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    return subprocess.run(["/bin/sh", "-c", script, TOOL, *map(str, args)], stdout=stdout,
+                          stderr=subprocess.PIPE, text=True, env=environment, timeout=TIMEOUT)
+
+
+@check
+def file_size_limit_and_other_signals_leave_no_temporaries():
+    """Past a file size limit (ulimit -f, SIGXFSZ not ignored, as in any
+    shell) the tool died half-way through the file, its partial temporary
+    left behind: now the write fails (EFBIG) and is reported, the old file
+    kept. The other signals whose default action kills the tool (a CPU time
+    limit, timers, SIGUSR1/2) remove the temporaries first, as SIGTERM."""
+    d = fresh_dir("signals")
+    out = os.path.join(d, "t.vtp")
+    with open(out, "w") as f:
+        f.write("OLD\n")
+    r = shell_run('ulimit -f 8; exec "$0" "$@"', "--sample", "tube", "--epsilon", "0", "-q",
+                  "-o", out)
+    lines = r.stderr.splitlines()
+    expect(r.returncode == 1 and len(lines) == 1 and
+           lines[0].startswith(f"precisemc: error: cannot write '{out}'"),
+           f"ulimit -f: exit status {r.returncode}, stderr {r.stderr!r}")
+    with open(out) as f:
+        expect(f.read() == "OLD\n", "the old file was changed")
+    expect(not tmp_files(d), f"ulimit -f: temporary files left: {tmp_files(d)}")
+    os.remove(out)
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    for sig in (signal.SIGXCPU, signal.SIGALRM, signal.SIGVTALRM, signal.SIGPROF,
+                signal.SIGUSR1, signal.SIGUSR2):
+        p = subprocess.Popen([TOOL, "--sample", "all", "--measure", "-o",
+                              os.path.join(d, "run.vtp")], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL, env=environment)
+        # Once a temporary holds data (the probe of the directory, empty,
+        # may be gone between the listing and the size).
+        def holds_data(name):
+            try:
+                return os.path.getsize(os.path.join(d, name)) > 0
+            except FileNotFoundError:
+                return False
+        try:
+            seen = []
+            for _ in range(6000):
+                seen = [f for f in tmp_files(d) if holds_data(f)]
+                if seen or p.poll() is not None:
+                    break
+                time.sleep(0.01)
+            expect(seen, f"{sig.name}: no temporary file seen while the run went on")
+            p.send_signal(sig)
+            p.wait(timeout=TIMEOUT)
+        finally:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+        expect(p.returncode == -sig, f"{sig.name}: exit status {p.returncode}")
+        expect(not os.listdir(d), f"{sig.name}: left behind: {os.listdir(d)}")
 
 
 def main():
