@@ -46,8 +46,20 @@ char* volatile PendingNames[MaxPending];
 const int CleanupSignals[] = { SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGXCPU, SIGALRM,
   SIGVTALRM, SIGPROF, SIGUSR1, SIGUSR2 };
 
+// Set while PendingFiles::Commit() renames the files into place: a signal
+// then only records itself in HeldSignal, and the commit, once its renames
+// are over, undoes them and dies of it (a run killed never leaves part of
+// its outputs, nor all of them, behind).
+volatile std::sig_atomic_t Committing = 0;
+volatile std::sig_atomic_t HeldSignal = 0;
+
 void RemovePendingAndDie(int sig)
 {
+  if (Committing)
+  {
+    HeldSignal = sig;
+    return;
+  }
   for (int i = 0; i < MaxPending; ++i)
   {
     const char* name = PendingNames[i];
@@ -166,6 +178,31 @@ private:
   void operator=(const CaptureOutputWindow&) = delete;
 };
 vtkStandardNewMacro(CaptureOutputWindow);
+
+// Whether the process has a capability (its bit in the CapEff line of
+// /proc/self/status): root's usual powers, or one given to the process
+// alone. Without /proc, root is taken to have it.
+bool HasCapability(int bit)
+{
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f)
+  {
+    return geteuid() == 0;
+  }
+  char line[256];
+  unsigned long long caps = 0;
+  bool found = false;
+  while (!found && std::fgets(line, sizeof(line), f))
+  {
+    found = std::sscanf(line, "CapEff: %llx", &caps) == 1;
+  }
+  std::fclose(f);
+  return found ? ((caps >> bit) & 1u) != 0 : geteuid() == 0;
+}
+
+// CAP_FOWNER of <linux/capability.h>: lets the process replace any file
+// in a sticky directory.
+constexpr int CapFowner = 3;
 
 std::string DirectoryOf(const std::string& path)
 {
@@ -335,6 +372,15 @@ void CheckWritable(const std::string& given, const std::string& what)
   {
     throw Error("cannot write " + what + " " + named + ": it is a directory");
   }
+  // A FIFO or a device (or a link to one: "-o /dev/null" through a link)
+  // would be replaced by a regular file at the commit, for everyone.
+  struct stat target;
+  const bool exists = stat(path.c_str(), &target) == 0;
+  if (exists && !S_ISREG(target.st_mode))
+  {
+    throw Error("'" + given + "' is not a regular file" +
+      (path == given ? std::string() : " (it links to '" + path + "')"));
+  }
   std::string dir = DirectoryOf(path);
   struct stat dirStat;
   if (stat(dir.c_str(), &dirStat) != 0)
@@ -356,6 +402,16 @@ void CheckWritable(const std::string& given, const std::string& what)
   {
     throw Error(
       "cannot write " + what + " " + named + ": " + std::strerror(errno));
+  }
+  // In a sticky directory (/tmp, a shared scratch directory) only the
+  // file's owner, the directory's owner and a process with CAP_FOWNER
+  // (root) may replace a file: the final rename() would fail with EPERM,
+  // after the work, though writing into the file (">") works.
+  if (exists && (dirStat.st_mode & S_ISVTX) != 0 && target.st_uid != geteuid() &&
+    dirStat.st_uid != geteuid() && !HasCapability(CapFowner))
+  {
+    throw Error("cannot write " + what + " " + named + ": it belongs to another user and its "
+      "directory '" + dir + "' is sticky (as /tmp), where only the file's owner may replace it");
   }
   // A name the file system cannot hold fails only at the final rename,
   // after the other outputs of the run are in place.
@@ -471,23 +527,6 @@ std::string ForUser(std::string why, const std::string& tmp, const std::string& 
   return why;
 }
 
-void CommitFile(const std::string& tmp, const std::string& path)
-{
-  // A file replaced keeps its permissions, as with the shell's '>' (the
-  // temporary has the default ones).
-  struct stat existing;
-  if (stat(path.c_str(), &existing) == 0 && S_ISREG(existing.st_mode))
-  {
-    chmod(tmp.c_str(), existing.st_mode & 07777);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0)
-  {
-    int err = errno;
-    std::remove(tmp.c_str());
-    throw Error("cannot write '" + path + "': " + std::strerror(err));
-  }
-}
-
 void RemoveFile(const std::string& path)
 {
   std::remove(path.c_str());
@@ -531,20 +570,119 @@ std::string PendingFiles::Add(const std::string& path)
 void PendingFiles::Commit()
 {
   // The paths were checked before the work and each temporary is in its
-  // path's directory: a rename failing here is an unusual event (the
-  // directory changed meanwhile).
-  while (!this->Files.empty())
+  // path's directory: a failure here is an unusual event (the directory
+  // changed meanwhile, a file bind-mounted over, ...). The commit is all
+  // or nothing all the same: the files replaced are kept under a hidden
+  // name (a hard link, in their own directory) until every rename has
+  // succeeded, and put back if one fails.
+  std::vector<File> files;
+  files.swap(this->Files);
+  const size_t n = files.size();
+  std::vector<bool> existed(n, false); // a file was at the path before
+  std::vector<std::string> kept(n);    // its hard link; "" if none made
+  size_t renamed = 0;                  // files[0, renamed) are in place
+  std::string failure;
+  HeldSignal = 0;
+  Committing = 1; // a signal now waits for the end of the renames
+
+  // 1. Nothing is renamed over a file that is not a regular one (a FIFO,
+  // a device): CheckWritable refused it, but it may have appeared since.
+  for (size_t i = 0; i < n && failure.empty(); ++i)
   {
-    File f = this->Files.front();
-    this->Files.erase(this->Files.begin());
-    // Unregistered after the rename (an interrupt in between unlinks a
-    // name that is gone), or after the failed rename removed it.
-    struct Unregister
+    struct stat st;
+    existed[i] = lstat(files[i].Path.c_str(), &st) == 0;
+    if (existed[i] && !S_ISREG(st.st_mode))
     {
-      const std::string& Temporary;
-      ~Unregister() { UnregisterPending(this->Temporary); }
-    } unregister{ f.Temporary };
-    CommitFile(f.Temporary, f.Path);
+      failure = "'" + files[i].Path + "' is not a regular file";
+    }
+  }
+  // 2. Each file to be replaced gets a second name. When none can be made
+  // (a file system without hard links, a name taken 100 times), that file
+  // is replaced without this net, as before.
+  for (size_t i = 0; i < n && failure.empty(); ++i)
+  {
+    for (int attempt = 0; existed[i] && attempt < 100; ++attempt)
+    {
+      const std::string name = TemporaryPathFor(files[i].Path);
+      if (link(files[i].Path.c_str(), name.c_str()) == 0)
+      {
+        kept[i] = name;
+        break;
+      }
+      if (errno != EEXIST)
+      {
+        break;
+      }
+    }
+  }
+  // 3. The renames. A file replaced keeps its permissions, as with the
+  // shell's '>' (the temporary has the default ones).
+  for (size_t i = 0; i < n && failure.empty(); ++i)
+  {
+    struct stat st;
+    if (stat(files[i].Path.c_str(), &st) == 0 && S_ISREG(st.st_mode))
+    {
+      chmod(files[i].Temporary.c_str(), st.st_mode & 07777);
+    }
+    if (std::rename(files[i].Temporary.c_str(), files[i].Path.c_str()) != 0)
+    {
+      failure = "cannot write '" + files[i].Path + "': " + std::strerror(errno);
+      break;
+    }
+    ++renamed;
+  }
+
+  // 4. Success: the second names go. Failure, or a signal that came
+  // meanwhile: the files renamed are undone (the old file put back from its
+  // link, a new one removed), the other temporaries and links removed.
+  const int sig = HeldSignal;
+  std::string lost; // what could not be undone
+  for (size_t i = 0; i < n; ++i)
+  {
+    const File& f = files[i];
+    if (failure.empty() && sig == 0)
+    {
+      if (!kept[i].empty())
+      {
+        unlink(kept[i].c_str());
+      }
+    }
+    else if (i >= renamed)
+    {
+      RemoveFile(f.Temporary);
+      if (!kept[i].empty())
+      {
+        unlink(kept[i].c_str());
+      }
+    }
+    else if (!kept[i].empty())
+    {
+      if (std::rename(kept[i].c_str(), f.Path.c_str()) != 0)
+      {
+        lost += "; '" + f.Path + "' was replaced (the file there before is kept as '" +
+          kept[i] + "')";
+      }
+    }
+    else if (!existed[i])
+    {
+      RemoveFile(f.Path);
+    }
+    else
+    {
+      lost += "; '" + f.Path + "' was replaced";
+    }
+    UnregisterPending(f.Temporary);
+  }
+  Committing = 0;
+  // (A signal that came after the decision above finds the files
+  // committed: the tool dies of it all the same.)
+  if (sig != 0 || HeldSignal != 0)
+  {
+    RemovePendingAndDie(sig != 0 ? sig : HeldSignal);
+  }
+  if (!failure.empty())
+  {
+    throw Error(failure + lost);
   }
 }
 

@@ -81,8 +81,11 @@ std::string ThroughLinks(const std::string& path);
 
 // Throws Error unless a file can be created at path (through its links,
 // ThroughLinks): its directory exists and is writable (a temporary file is
-// created there and removed: access() passes root everywhere), and path is
-// not a directory.
+// created there and removed: access() passes root everywhere), path is
+// not a directory nor any other file that is not a regular one (a FIFO, a
+// device: the temporary would be renamed over it), and the file there can
+// be replaced (not another user's file in a sticky directory such as /tmp,
+// where rename() fails though writing into the file works).
 void CheckWritable(const std::string& path, const std::string& what);
 
 // The file path names, for telling two spellings of one file apart:
@@ -106,9 +109,6 @@ std::string BestError(const std::vector<std::string>& errors);
 // path kept).
 std::string ForUser(std::string why, const std::string& tmp, const std::string& path);
 
-// Renames tmp onto path; removes tmp and throws Error on failure.
-void CommitFile(const std::string& tmp, const std::string& path);
-
 // Removes the file if it exists (no error).
 void RemoveFile(const std::string& path);
 
@@ -131,8 +131,12 @@ public:
   // next to the file it will replace (ThroughLinks(path)).
   std::string Add(const std::string& path);
 
-  // Renames every temporary onto its path. Throws Error (the remaining
-  // temporaries are removed).
+  // Renames every temporary onto its path, all or nothing: the files
+  // replaced are kept (hard links under hidden temporary names) until
+  // every rename has succeeded, and put back if one fails; the files the
+  // run created are then removed. Throws Error (every temporary removed).
+  // A signal arriving meanwhile is held until the commit is over, then
+  // undoes it before the tool dies of it.
   void Commit();
 
 private:

@@ -2702,6 +2702,106 @@ def file_size_limit_and_other_signals_leave_no_temporaries():
         expect(not os.listdir(d), f"{sig.name}: left behind: {os.listdir(d)}")
 
 
+@check
+def outputs_that_are_not_regular_files_are_refused():
+    """An output that is a FIFO or a device node (or a link to one) was
+    replaced by a regular file at the commit, exit status 0: a link to
+    /dev/null as -o, run as root, replaced /dev/null for the whole system.
+    Refused before any work, the node left as it was (a copy of the null
+    device, made in the scratch directory)."""
+    d = fresh_dir("special-outputs")
+    fifo = os.path.join(d, "pipe.vtp")
+    make_node(fifo, "fifo")
+    for args in (["-o", fifo], ["--write-volume", os.path.join(d, "pipe.vti")],
+                 ["--compare", os.path.join(d, "pipe.png")]):
+        if args[1] != fifo:
+            os.symlink(fifo, args[1])
+        line = expect_error(["--sample", "tube", "-q", *args], status=1)
+        expect(f"'{args[1]}' is not a regular file" in line, line)
+        expect(stat.S_ISFIFO(os.stat(fifo).st_mode), f"{args}: the FIFO was replaced")
+    null = os.path.join(d, "mynull")
+    make_node(null, "char", (1, 3))
+    link = os.path.join(d, "discard.stl")
+    os.symlink(null, link)
+    line = expect_error(["--sample", "tube", "-q", "-o", link], status=1)
+    expect(f"'{link}' is not a regular file" in line, line)
+    expect(stat.S_ISCHR(os.stat(null).st_mode), "the device node was replaced")
+    expect(not tmp_files(d), f"temporary files left: {tmp_files(d)}")
+
+
+@check
+def another_users_file_in_a_sticky_directory_is_refused_up_front():
+    """In a sticky directory (as /tmp) a file of another user that the user
+    may write cannot be replaced (rename() fails with EPERM): the run failed
+    at the commit, after the volume it wrote before was already in place.
+    Now refused before any work; root (CAP_FOWNER) replaces it."""
+    runuser = shutil.which("runuser")
+    if os.geteuid() != 0 or not runuser:
+        raise Skipped("needs root and runuser")
+    # A directory user nobody can reach (the scratch directory is private).
+    d = tempfile.mkdtemp(prefix="precisemc-sticky-")
+    try:
+        os.chmod(d, 0o1777)
+        probe = subprocess.run([runuser, "-u", "nobody", "--", TOOL, "--version"],
+                               capture_output=True, text=True, cwd=d, timeout=TIMEOUT)
+        if probe.returncode != 0:
+            raise Skipped(f"user nobody cannot run {TOOL}")
+        surface, volume = os.path.join(d, "a.vtp"), os.path.join(d, "v.vti")
+        with open(surface, "w") as f:
+            f.write("OLDSURF\n")
+        os.chmod(surface, 0o666)  # root's, writable by everyone
+        with open(volume, "w") as f:
+            f.write("OLDVOL\n")
+        shutil.chown(volume, "nobody")
+        r = subprocess.run([runuser, "-u", "nobody", "--", TOOL, "--sample", "tube", "-q",
+                            "--write-volume", volume, "-o", surface],
+                           capture_output=True, text=True, timeout=TIMEOUT)
+        lines = r.stderr.splitlines()
+        expect(r.returncode == 1 and len(lines) == 1 and
+               lines[0].startswith(f"precisemc: error: cannot write surface '{surface}'") and
+               "sticky" in lines[0], f"exit status {r.returncode}, stderr {r.stderr!r}")
+        for path, old in ((surface, "OLDSURF\n"), (volume, "OLDVOL\n")):
+            with open(path) as f:
+                expect(f.read() == old, f"{path} was replaced")
+        expect(not tmp_files(d), f"temporary files left: {tmp_files(d)}")
+        ok("--sample", "tube", "-q", "--write-volume", volume, "-o", surface)
+        expect(read_surface(surface).GetNumberOfPolys() > 1000, "root did not replace it")
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+@check
+def a_rename_failing_at_the_commit_undoes_the_others():
+    """A rename that fails at the commit, unforeseeable before the work (a
+    file bind-mounted over the output: EBUSY), left the outputs renamed
+    before it in place, the files they replaced lost. The commit is all or
+    nothing: the file replaced is put back, the new ones removed."""
+    d = fresh_dir("commit-undo")
+    source, busy = os.path.join(d, "src"), os.path.join(d, "s-ml.vtp")
+    for path in (source, busy):
+        with open(path, "w") as f:
+            f.write("MOUNTED\n")
+    vol = os.path.join(d, "v-tube.vti")
+    with open(vol, "w") as f:
+        f.write("OLDVOL\n")
+    mounted = subprocess.run(["mount", "--bind", source, busy], capture_output=True, text=True)
+    if mounted.returncode != 0:
+        raise Skipped(f"mount --bind is not permitted: {mounted.stderr.strip()}")
+    try:
+        # Committed in turn: v-tube.vti (replaced), s-tube.vtp, v-atoms.vti,
+        # s-atoms.vtp, v-ml.vti (new), then s-ml.vtp fails.
+        line = expect_error(["--sample", "all", "--epsilon", "0", "-q", "-o",
+                             os.path.join(d, "s.vtp"), "--write-volume",
+                             os.path.join(d, "v.vti")], f"cannot write '{busy}'", status=1)
+        expect("busy" in line, line)
+    finally:
+        subprocess.run(["umount", busy], capture_output=True)
+    with open(vol, "rb") as f:
+        expect(f.read() == b"OLDVOL\n", "the volume replaced was not put back")
+    expect(sorted(os.listdir(d)) == ["s-ml.vtp", "src", "v-tube.vti"],
+           f"left behind: {sorted(os.listdir(d))}")
+
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
