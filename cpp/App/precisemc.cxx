@@ -26,15 +26,18 @@
 #include "vtkXMLImageDataWriter.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <limits>
 #include <sstream>
 #include <thread>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -47,6 +50,43 @@ using Clock = std::chrono::steady_clock;
 double SecondsSince(Clock::time_point start)
 {
   return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Writes text to stdout at once and throws Error if it could not be
+// written (a full disk, a closed descriptor, a reader gone while SIGPIPE
+// is ignored: EPIPE), as GNU tools report it: a report lost must not end
+// in status 0, nor a run whose report is lost commit its files. With an
+// empty text: whether everything written so far got out.
+void Print(const std::string& text)
+{
+  errno = 0;
+  std::cout << text << std::flush;
+  const int err = errno;
+  if (!std::cout || std::ferror(stdout))
+  {
+    throw Error(std::string("cannot write to standard output: ") +
+      std::strerror(err != 0 ? err : EIO));
+  }
+}
+
+// A standard descriptor the caller closed (">&-") is given /dev/null,
+// read-only: no file the tool opens takes its number (the table went into
+// whatever file got descriptor 1), and a write to it still fails (EBADF),
+// reported by Print().
+void ReserveStandardDescriptors()
+{
+  for (int fd = 0; fd <= 2; ++fd)
+  {
+    if (fcntl(fd, F_GETFD) == -1 && errno == EBADF)
+    {
+      const int got = open("/dev/null", O_RDONLY);
+      if (got >= 0 && got != fd)
+      {
+        dup2(got, fd);
+        close(got);
+      }
+    }
+  }
 }
 
 // A volume to contour, with what the table says about it.
@@ -359,6 +399,7 @@ std::string Seconds(double s)
 
 int main(int argc, char* argv[])
 {
+  ReserveStandardDescriptors();
   // Past a file size limit (ulimit -f) a write raises SIGXFSZ, whose
   // default action killed the tool half-way through a file, its temporary
   // left behind. Ignored, the write fails with EFBIG instead, reported as
@@ -370,13 +411,13 @@ int main(int argc, char* argv[])
     pmcapp::Options o = pmcapp::ParseArguments(argc, argv);
     if (o.Help)
     {
-      std::cout << pmcapp::UsageText();
+      Print(pmcapp::UsageText());
       return 0;
     }
     if (o.Version)
     {
-      std::cout << "precisemc " << PRECISEMC_APP_VERSION << " (VTK "
-                << vtkVersion::GetVTKVersion() << ")" << std::endl;
+      Print(std::string("precisemc ") + PRECISEMC_APP_VERSION + " (VTK " +
+        vtkVersion::GetVTKVersion() + ")\n");
       return 0;
     }
     if (o.SMP && o.Threads > 0)
@@ -490,7 +531,7 @@ int main(int argc, char* argv[])
     {
       if (!o.Quiet && !d.Announcement.empty())
       {
-        std::cout << d.Announcement << std::endl;
+        Print(d.Announcement + "\n");
       }
     }
     // Every file of the run is committed at its end, after the pictures.
@@ -726,7 +767,7 @@ int main(int argc, char* argv[])
           // has succeeded (a later failure leaves nothing behind).
           table << Row("output file", output);
         }
-        std::cout << table.str() << std::flush;
+        Print(table.str());
       }
       panels.push_back(panel);
     }
@@ -746,10 +787,14 @@ int main(int argc, char* argv[])
       pictureLines +=
         "distance picture: " + o.Distance + " (" + Seconds(SecondsSince(start)) + ")\n";
     }
+    // All that was printed got out whole (Print checks) before the commit:
+    // a full disk under a redirected report fails the run before any file
+    // is in place.
+    Print("");
     files.Commit();
     if (!o.Quiet)
     {
-      std::cout << pictureLines << std::flush;
+      Print(pictureLines);
     }
     return 0;
   }

@@ -2802,6 +2802,48 @@ def a_rename_failing_at_the_commit_undoes_the_others():
            f"left behind: {sorted(os.listdir(d))}")
 
 
+def expect_stdout_error(r, reason, label):
+    lines = r.stderr.splitlines()
+    expect(r.returncode == 1 and len(lines) == 1 and
+           lines[0] == f"precisemc: error: cannot write to standard output: {reason}",
+           f"{label}: exit status {r.returncode}, stderr {r.stderr!r}")
+
+
+@check
+def write_errors_on_standard_output_are_reported():
+    """A report that cannot be written (stdout closed, a full disk, a reader
+    gone while SIGPIPE is ignored) was lost with exit status 0: now one
+    error line and status 1, and a run whose report is lost commits none of
+    its files."""
+    d = fresh_dir("stdout-errors")
+    out, vol = os.path.join(d, "t.vtp"), os.path.join(d, "t.vti")
+    closed = 'exec "$0" "$@" >&-'
+    for args in (["--version"], ["--help"], ["--sample", "tube", "-o", out, "--write-volume", vol]):
+        expect_stdout_error(shell_run(closed, *args), "Bad file descriptor", args)
+    expect(os.listdir(d) == [], f"written with stdout closed: {os.listdir(d)}")
+    # A reader that is gone, SIGPIPE ignored by the caller: EPIPE.
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    p = subprocess.Popen(["/bin/sh", "-c", "trap '' PIPE; exec \"$0\" \"$@\"", TOOL,
+                          "--sample", "tube", "-o", out], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env=environment)
+    p.stdout.close()
+    err = p.stderr.read()
+    p.wait(timeout=TIMEOUT)
+    expect_stdout_error(subprocess.CompletedProcess(p.args, p.returncode, "", err), "Broken pipe",
+                        "EPIPE")
+    expect(os.listdir(d) == [], f"written with the reader gone: {os.listdir(d)}")
+    # A full disk: a copy of /dev/full, made in the scratch directory.
+    full = os.path.join(d, "full")
+    make_node(full, "char", (1, 7))
+    with open(full, "w") as sink:
+        for args in (["--version"], ["--sample", "atoms", "--measure", "--measure-density", "1"],
+                     ["--sample", "tube", "-o", out]):
+            expect_stdout_error(shell_run('exec "$0" "$@"', *args, stdout=sink),
+                                "No space left on device", args)
+    expect(os.listdir(d) == ["full"], f"written with stdout full: {os.listdir(d)}")
+
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
