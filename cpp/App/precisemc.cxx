@@ -787,15 +787,16 @@ int main(int argc, char* argv[])
       pictureLines +=
         "distance picture: " + o.Distance + " (" + Seconds(SecondsSince(start)) + ")\n";
     }
-    // All that was printed got out whole (Print checks) before the commit:
-    // a full disk under a redirected report fails the run before any file
-    // is in place.
-    Print("");
-    files.Commit();
+    // Everything is printed, and got out whole (Print checks), before the
+    // commit: a reader of stdout that quits early (SIGPIPE), or a full
+    // disk under a redirected report, fails the run before any file is
+    // in place. Nothing is written after it.
     if (!o.Quiet)
     {
       Print(pictureLines);
     }
+    Print("");
+    files.Commit();
     return 0;
   }
   catch (const Error& e)

@@ -2844,6 +2844,30 @@ def write_errors_on_standard_output_are_reported():
     expect(os.listdir(d) == ["full"], f"written with stdout full: {os.listdir(d)}")
 
 
+@check
+def a_reader_that_stops_early_never_leaves_a_finished_run_killed():
+    """The picture lines were printed after the commit: a reader of stdout
+    that stopped after the table made the run die of SIGPIPE (status 141)
+    with every output in place. Everything is printed before the commit:
+    the run dies before committing, leaving nothing."""
+    d = fresh_dir("sigpipe-late")
+    out, png = os.path.join(d, "t.vtp"), os.path.join(d, "t.png")
+    environment = dict(os.environ)
+    environment.pop("DISPLAY", None)
+    p = subprocess.Popen([TOOL, "--sample", "tube", "-o", out, "--compare", png],
+                         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                         env=environment)
+    for line in p.stdout:
+        if line.startswith("  output file"):
+            break  # the table's last row: the reader quits (| head -n 9)
+    p.stdout.close()
+    p.wait(timeout=TIMEOUT)
+    written = sorted(os.listdir(d))
+    expect((p.returncode == 0 and written == ["t.png", "t.vtp"]) or
+           (p.returncode != 0 and written == []),
+           f"exit status {p.returncode} with {written} written")
+
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
