@@ -463,7 +463,8 @@ options:
                         points per triangle (default 3;
                         lower it for large surfaces; 1 measures only the
                         vertices, which every contour filter puts on S_K)
-  -q, --quiet           print nothing but errors
+  -q, --quiet           print nothing but errors (and the warning that a
+                        surface is empty)
   -h, --help            print this help
       --version         print the version
 

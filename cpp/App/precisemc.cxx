@@ -571,6 +571,19 @@ int main(int argc, char* argv[])
         throw Error(d.Name + ": " + errors.front());
       }
       pmcapp::TakeVTKWarnings();
+      if (filter->GetOutput()->GetNumberOfPolys() == 0)
+      {
+        // Every isovalue is inside the scalar range (checked before the
+        // work), yet no cell the filter contours is crossed: the cells
+        // with NaN or infinite samples are skipped (a low sample whose
+        // neighbours are all NaN). The empty file written is most likely
+        // not what was wanted: said even with -q, the status left 0.
+        std::cerr << "precisemc: warning: " << d.Name << ": the surface is empty: no cell with "
+                  << "only finite samples is crossed at isovalue"
+                  << (d.Values.size() > 1 ? "s " : " ") << ValuesText(d.Values)
+                  << (output.empty() ? "" : " (the file written holds no triangles)")
+                  << std::endl;
+      }
 
       pmcapp::Panel panel;
       panel.Name = d.Name;

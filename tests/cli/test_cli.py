@@ -2868,6 +2868,26 @@ def a_reader_that_stops_early_never_leaves_a_finished_run_killed():
            f"exit status {p.returncode} with {written} written")
 
 
+@check
+def an_empty_surface_inside_the_range_is_warned_about():
+    """An isovalue inside the scalar range whose surface is empty (the low
+    sample's neighbours all NaN: no cell with finite samples is crossed)
+    wrote an empty file, exit status 0, without a word under -q. Now a
+    warning, also under -q; the status stays 0."""
+    d = fresh_dir("empty-surface")
+    a = np.full((6, 6, 6), 10.0)
+    a[3, 3, 3] = 0.0
+    for dz, dy, dx in ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)):
+        a[3 + dz, 3 + dy, 3 + dx] = np.nan
+    vti = os.path.join(d, "nanlow.vti")
+    write_vti(density_image(a, (6, 6, 6), (1, 1, 1), (0, 0, 0)), vti)
+    out = os.path.join(d, "empty.stl")
+    for quiet in (["-q"], []):
+        r = ok(vti, *quiet, "-o", out, warns="nanlow.vti: the surface is empty")
+        expect("holds no triangles" in r.stderr, r.stderr)
+        expect(read_surface(out).GetNumberOfPolys() == 0, "triangles written")
+
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
