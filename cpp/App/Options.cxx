@@ -472,8 +472,9 @@ Pictures are rendered off screen; without a usable $DISPLAY (one that
 opens and has GLX) the tool starts a private Xvfb. Files are written
 through temporary files, renamed once the whole run has succeeded, so a
 failed run leaves no output; an output that is a symbolic link is written
-through (the link stays). On error, one line "precisemc: error: ..."
-goes to stderr and the exit status is 1 (2 for a command-line mistake).
+through (the link stays), one that is not a regular file (a FIFO, a
+device) is refused. On error, one line "precisemc: error: ..." goes to
+stderr and the exit status is 1 (2 for a command-line mistake).
 )";
 }
 
