@@ -131,17 +131,27 @@ int ContourGhostSamples(
 }
 
 // Whether `dataExtent` is piece `piece` of `pieces` of `splitExtent`, as
-// vtkExtentTranslator cuts it in `splitMode` (without ghost levels: an
-// input that holds ghost levels has ghost arrays, which tell its own cells
-// instead; see OwnCells()).
-bool SplitAsAsked(
-  const int dataExtent[6], int piece, int pieces, const int splitExtent[6], int splitMode)
+// vtkExtentTranslator cuts it in `splitMode`, without ghost levels or with
+// the `ghostLevels` asked for. (An input that holds ghost levels usually
+// has a cell ghost array, which tells its own cells instead, see
+// OwnCells(); but vtkImageChangeInformation and vtkImageTranslateExtent
+// pass the ghost layer on without it, and taking all such an input's
+// cells as its own contoured the layer in both neighbouring pieces.)
+bool SplitAsAsked(const int dataExtent[6], int piece, int pieces, const int splitExtent[6],
+  int splitMode, int ghostLevels)
 {
   vtkNew<vtkExtentTranslator> translator;
-  int extent[6];
-  return translator->PieceToExtentThreadSafe(
-           piece, pieces, 0, const_cast<int*>(splitExtent), extent, splitMode, 0) &&
-    std::equal(extent, extent + 6, dataExtent);
+  for (const int levels : { 0, ghostLevels })
+  {
+    int extent[6];
+    if (translator->PieceToExtentThreadSafe(
+          piece, pieces, levels, const_cast<int*>(splitExtent), extent, splitMode, 0) &&
+      std::equal(extent, extent + 6, dataExtent))
+    {
+      return true;
+    }
+  }
+  return false;
 }
 
 // The point extent of the cells of `input` (extent `dataExtent`) that its
@@ -908,7 +918,7 @@ int vtkPreciseMarchingCubes::Contour(
       : this->ContourPieces > 1 &&
         (input->GetCellGhostArray() != nullptr ||
           !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
-            this->ContourSplitExtent, this->ContourSplitMode));
+            this->ContourSplitExtent, this->ContourSplitMode, ghostSamples));
     int asked[6]; // the piece asked for, before OwnCells() takes the input's own cells
     std::copy(piece, piece + 6, asked);
     if (ownSplit && !OwnCells(input, dataExtent, piece))
@@ -1008,23 +1018,68 @@ int vtkPreciseMarchingCubes::Contour(
     ghostCells = ghostCells || sampleExtent[2 * i] != extent[2 * i] ||
       sampleExtent[2 * i + 1] != extent[2 * i + 1];
   }
-  // Cells the input's ghost array hides (blanking: in AMR data, a finer
+  // Cells the input's ghost arrays hide (blanking: in AMR data, a finer
   // block covers them) make no triangles, as vtkContourFilter skips them
-  // in a vtkUniformGrid; their samples still shape the surface around.
+  // in a vtkUniformGrid; their samples still shape the surface around. A
+  // cell is hidden when its cell flag says HIDDENCELL or a corner's point
+  // flag says HIDDENPOINT (vtkUniformGrid::IsCellVisible()).
   const unsigned char* hidden = nullptr;
+  vtkIdType cellDims[3];
+  vtkIdType cells = 1;
+  for (int i = 0; i < 3; ++i)
+  {
+    cellDims[i] =
+      std::max<vtkIdType>(0, static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i]);
+    cells *= cellDims[i];
+  }
   if (vtkUnsignedCharArray* flags = input->GetCellGhostArray())
   {
-    vtkIdType cells = 1;
-    for (int i = 0; i < 3; ++i)
-    {
-      cells *= std::max<vtkIdType>(0, static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i]);
-    }
     const unsigned char* flag = flags->GetPointer(0);
     if (flags->GetNumberOfComponents() == 1 && flags->GetNumberOfTuples() == cells &&
       std::any_of(flag, flag + cells,
         [](unsigned char f) { return (f & vtkDataSetAttributes::HIDDENCELL) != 0; }))
     {
       hidden = flag;
+    }
+  }
+  std::vector<unsigned char> hiddenByPoints;
+  if (vtkUnsignedCharArray* flags = input->GetPointGhostArray())
+  {
+    const vtkIdType pdims[3] = { cellDims[0] + 1, cellDims[1] + 1, cellDims[2] + 1 };
+    const unsigned char* flag = flags->GetPointer(0);
+    const vtkIdType points = pdims[0] * pdims[1] * pdims[2];
+    if (cells > 0 && flags->GetNumberOfComponents() == 1 && flags->GetNumberOfTuples() == points &&
+      std::any_of(flag, flag + points,
+        [](unsigned char f) { return (f & vtkDataSetAttributes::HIDDENPOINT) != 0; }))
+    {
+      if (hidden)
+      {
+        hiddenByPoints.assign(hidden, hidden + cells);
+      }
+      else
+      {
+        hiddenByPoints.assign(static_cast<size_t>(cells), 0);
+      }
+      auto off = [&](vtkIdType i, vtkIdType j, vtkIdType k) {
+        return (flag[i + pdims[0] * (j + pdims[1] * k)] & vtkDataSetAttributes::HIDDENPOINT) != 0;
+      };
+      vtkIdType c = 0;
+      for (vtkIdType k = 0; k < cellDims[2]; ++k)
+      {
+        for (vtkIdType j = 0; j < cellDims[1]; ++j)
+        {
+          for (vtkIdType i = 0; i < cellDims[0]; ++i, ++c)
+          {
+            if (off(i, j, k) || off(i + 1, j, k) || off(i, j + 1, k) || off(i + 1, j + 1, k) ||
+              off(i, j, k + 1) || off(i + 1, j, k + 1) || off(i, j + 1, k + 1) ||
+              off(i + 1, j + 1, k + 1))
+            {
+              hiddenByPoints[static_cast<size_t>(c)] |= vtkDataSetAttributes::HIDDENCELL;
+            }
+          }
+        }
+      }
+      hidden = hiddenByPoints.data();
     }
   }
   const bool selectCells = ghostCells || hidden != nullptr;

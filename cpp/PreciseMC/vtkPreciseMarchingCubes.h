@@ -87,8 +87,9 @@
  * and the filter warns (not for flat triangles on a cut where samples
  * equal the isovalue); so it does for an input that is the piece asked for
  * but without the ghost layer asked with it (a source that ignores ghost
- * levels). Cells the input's ghost array flags HIDDENCELL (AMR blanking)
- * make no triangles, as in vtkContourFilter on a vtkUniformGrid. InterpolateAttributes gives every point the same
+ * levels). Cells the input's cell ghost array flags HIDDENCELL, or with a
+ * corner its point ghost array flags HIDDENPOINT (AMR blanking), make no
+ * triangles, as in vtkContourFilter on a vtkUniformGrid. InterpolateAttributes gives every point the same
  * values in every piece, and never interpolates the input's ghost flags.
  *
  * The work is done by the PreciseMC library (Rust) through its C API, in

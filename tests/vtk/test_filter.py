@@ -1021,6 +1021,98 @@ def test_hidden_cells_make_no_triangles(props, rng):
             assert out.GetNumberOfPolys() == contour.GetOutput().GetNumberOfPolys()
 
 
+@pytest.mark.parametrize("props", [
+    {"Epsilon": 0.0, "Topology": 1},
+    {"Epsilon": 0.0},
+    {"Epsilon": 0.002, "MaxLevel": 5},
+])
+def test_hidden_points_hide_their_cells(props, rng):
+    """A vtkUniformGrid blanked by points (HIDDENPOINT in the point ghost
+    array) hides every cell with a hidden corner, as
+    vtkUniformGrid::IsCellVisible() and vtkContourFilter have it; the filter
+    read only the cell flags and contoured the whole blanked region. Cell
+    flags still count beside the point flags."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes, vtkUniformGrid
+    from vtkmodules.vtkFiltersCore import vtkContourFilter
+
+    image = wavelet(8)
+    full = precise(image, [150.0], **props)
+    off = rng.random((17, 17, 17)) < 0.01  # hidden points, [k, j, i]
+    off[:, :, 12:] = True  # and a slab of them
+    cell_hidden = np.zeros((16, 16, 16), dtype=bool)
+    for dk in (0, 1):
+        for dj in (0, 1):
+            for di in (0, 1):
+                cell_hidden |= off[dk:dk + 16, dj:dj + 16, di:di + 16]
+    by_cell = np.zeros((16, 16, 16), dtype=bool)
+    by_cell[2:4, :, :] = True  # hidden by the cell flags
+    grid = vtkUniformGrid()
+    grid.DeepCopy(image)
+    for data, hidden_flags, flag in ((grid.GetPointData(), off, vtkDataSetAttributes.HIDDENPOINT),
+                                     (grid.GetCellData(), by_cell, vtkDataSetAttributes.HIDDENCELL)):
+        ghosts = numpy_to_vtk(np.where(hidden_flags, flag, 0).astype(np.uint8).ravel(), deep=1,
+                              array_type=3)  # VTK_UNSIGNED_CHAR
+        ghosts.SetName("vtkGhostType")
+        data.AddArray(ghosts)
+    out = precise(grid, [150.0], **props).GetOutput()
+    xyz = points(full.GetOutput())[triangles(full.GetOutput())]
+    cell = np.minimum(np.floor(xyz.min(axis=1) + 8.0).astype(int), 15)  # extent from -8
+    hide = (cell_hidden | by_cell)[cell[:, 2], cell[:, 1], cell[:, 0]]
+    assert 0 < hide.sum() < len(hide)
+    assert np.array_equal(coordinate_triangles(out), coordinate_rows(xyz[~hide]))
+    if props.get("Topology") == 1:
+        contour = vtkContourFilter()
+        contour.SetInputData(grid)
+        contour.SetValue(0, 150.0)
+        contour.Update()
+        assert out.GetNumberOfPolys() == contour.GetOutput().GetNumberOfPolys()
+
+
+@pytest.mark.parametrize("upstream", ["vtkImageChangeInformation", "vtkImageTranslateExtent"])
+@pytest.mark.parametrize("props", [{"Epsilon": 0.0, "ComputeNormals": 0}, {"Epsilon": 0.01}])
+def test_pieces_behind_filters_that_drop_cell_ghosts(upstream, props):
+    """vtkImageChangeInformation and vtkImageTranslateExtent pass a piece's
+    ghost layer on without its cell ghost array. Such an input, the piece
+    asked for grown by the ghost levels asked for, was taken for a volume
+    split its own way, all its cells its own: the ghost layer came out in
+    both neighbouring pieces (2 pieces: 200 triangles twice, silently with
+    Epsilon 0). The pieces' union is the serial surface, each triangle
+    once."""
+    from vtkmodules.vtkImagingCore import (vtkImageChangeInformation, vtkImageTranslateExtent,
+                                           vtkRTAnalyticSource)
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-6, 7, -5, 6, -7, 5)
+    if upstream == "vtkImageChangeInformation":
+        moved = vtkImageChangeInformation()
+        moved.SetOutputOrigin(0.5, -1.0, 2.0)
+    else:
+        moved = vtkImageTranslateExtent()
+        moved.SetTranslation(3, -2, 1)
+    moved.SetInputConnection(source.GetOutputPort())
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(moved.GetOutputPort())
+    f.SetValue(0, 170.0)
+    for key, value in props.items():
+        getattr(f, "Set" + key)(value)
+    observer = ErrorObserver(f)
+    f.UpdatePiece(0, 1, 0)
+    serial = coordinate_triangles(f.GetOutput())
+    assert len(serial) > 1000
+    for pieces in (2, 4):
+        parts = []
+        for piece in range(pieces):
+            f.UpdatePiece(piece, pieces, 0)
+            assert moved.GetOutput().GetCellGhostArray() is None
+            parts.append(coordinate_triangles(f.GetOutput()))
+        union = np.concatenate(parts)
+        union = union[np.lexsort(union.T[::-1])]
+        assert union.shape == serial.shape, f"{pieces} pieces"
+        assert np.array_equal(union, serial), f"{pieces} pieces"
+    assert observer.errors == [] and observer.warnings == []
+
+
 def test_pieces_choose_the_serial_points_precision():
     """With the default precision, points are double where float could not
     tell the refined points apart (far from the origin). The choice is the
