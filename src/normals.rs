@@ -238,13 +238,17 @@ fn per_point<T: Scalar>(
     };
     // The gradient of the first cell around the point whose samples are
     // all finite (the surface's own cells are; a point on their faces may
-    // be located in a neighbour that is not).
+    // be located in a neighbour that is not), and where it is not NaN:
+    // unscaled samples near f64::MAX (a volume no exact scaling serves, see
+    // `magnitude`) overflow their differences to infinities of both signs,
+    // which the interpolation across the cell mixes into NaN.
     let gradient = |p: DVec3| {
         each_cell(p, dims, off, |c, l| {
             let v = filter.corners(c);
             v.iter()
                 .all(|x| x.is_finite())
                 .then(|| trilinear_gradient(&v, l))
+                .filter(|g| !g.is_nan())
         })
     };
     // Central differences interpolated in the first cell around the point
