@@ -570,7 +570,8 @@ impl Bricks {
 /// bound on the distance), and the nearest box left gives a lower bound.
 /// The search stops when the two agree within the tolerance, or a box is
 /// small enough to decide alone. It starts with the cells within one cell
-/// of `p` and doubles that radius while no surface is found.
+/// of `p` and doubles that radius while no surface is found, until every
+/// cell of the volume has been looked at.
 fn distance<T: Scalar>(
     grid: &Grid<'_, T>,
     bricks: &Bricks,
@@ -584,7 +585,8 @@ fn distance<T: Scalar>(
     }
     let cells = [grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1];
     let extent = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64);
-    // Farthest any point of the volume can be from p.
+    // Farthest any point of the volume can be from p (rounded: see
+    // `covered` below).
     let reach = (p.abs() + extent + DVec3::ONE).length();
     let mut radius = 1.0f64;
     let mut upper = f64::INFINITY;
@@ -596,20 +598,33 @@ fn distance<T: Scalar>(
         let mut first = [0usize; 3];
         let mut last = [0usize; 3];
         let mut empty = false;
+        // Whether the radius reaches the whole volume, and every cell is in
+        // the box and, below, in the ball: then no cell is left unseen.
+        // (The radius against `reach` alone is not enough: far from the
+        // volume, |p| + its extent rounds to |p|, and at a radius of |p| a
+        // point 2^56 cells or more below the volume on some axis reached
+        // only its first layer of cells, and was left with no surface when
+        // the surface lay in the others. `reach` is kept so that the search
+        // runs as it did wherever that was right.)
+        let mut covered = radius >= reach;
         for a in 0..3 {
             let lo = (p[a] - radius).floor().max(0.0);
             let hi = (p[a] + radius).floor().min(cells[a] as f64 - 1.0);
             if hi < lo {
                 empty = true;
+                covered = false;
             } else {
                 first[a] = lo as usize;
                 last[a] = hi as usize;
+                covered &= first[a] == 0 && last[a] == cells[a] - 1;
             }
         }
+        let mut outside_ball = false;
         // A cell meeting the ball: a box of the search if it straddles.
         let mut visit = |i: usize, j: usize, k: usize| {
             let lo = DVec3::new(i as f64, j as f64, k as f64);
             if box_distance(p, lo, 1.0) > radius {
+                outside_ball = true;
                 return;
             }
             let mut f = [0.0; 8];
@@ -652,13 +667,10 @@ fn distance<T: Scalar>(
                 }
             }
         }
+        let covered = covered && !outside_ball;
         // Cells not yet seen lie beyond the radius (until it covers the
         // volume): the lower bound of the boxes left cannot exceed it.
-        let unseen = if radius >= reach {
-            f64::INFINITY
-        } else {
-            radius
-        };
+        let unseen = if covered { f64::INFINITY } else { radius };
         while let Some(c) = heap.pop() {
             if c.lower.min(unseen) >= upper - allowed(upper, tolerance, relative) {
                 // Every box left, seen or not, is at least this far: upper
@@ -670,7 +682,7 @@ fn distance<T: Scalar>(
                 // See MAX_SEARCH_BOXES: the bound found so far.
                 return Some(upper);
             }
-            if c.lower > radius && upper > radius {
+            if !covered && c.lower > radius && upper > radius {
                 // A nearer surface may lie in cells beyond the radius.
                 break;
             }
@@ -721,7 +733,7 @@ fn distance<T: Scalar>(
             // Every box within the radius is decided.
             return Some(upper);
         }
-        if radius >= reach {
+        if covered {
             return upper.is_finite().then_some(upper);
         }
         radius *= 2.0;

@@ -334,6 +334,118 @@ fn far_points_up_to_the_reach_are_measured_and_beyond_it_refused() {
     }
 }
 
+/// A point far outside the volume, on either side of any axis, up to
+/// `MAX_MEASURE_REACH`, is measured to its exact distance within the
+/// certified tolerance, and to 1e-12 of it from 1e7 cells on where the
+/// nearest point of `S_K` is the foot of a perpendicular. (A point whose
+/// coordinate on some axis was minus a power of two of 2^56 or more was
+/// left unresolved, as if the volume had no surface: the search stopped at
+/// a radius that, rounded, seemed to reach the whole volume, and took in
+/// only its first layer of cells.)
+#[test]
+fn far_points_on_every_side_are_measured_exactly() {
+    use precisemc::accuracy::MAX_MEASURE_REACH;
+    let dims = [8usize, 6, 5];
+    let mut far: Vec<f64> = Vec::new();
+    for e in [
+        10, 20, 33, 52, 53, 54, 55, 56, 57, 58, 60, 64, 80, 100, 127, 150, 180, 199,
+    ] {
+        let m = 2f64.powi(e);
+        // The power of two, and its neighbours and a multiple of it that
+        // are not.
+        far.extend([
+            m,
+            m * (1.0 + f64::EPSILON),
+            m * (1.0 - f64::EPSILON / 2.0),
+            3.0 * m,
+        ]);
+    }
+    far.extend((3..=60).map(|e| 10f64.powi(e)));
+    far.extend([7.2e16, 1.2345678e25, 0.7 * MAX_MEASURE_REACH]);
+    far.retain(|&m| m <= MAX_MEASURE_REACH);
+    let o = MeasureOptions {
+        threads: 1,
+        ..MeasureOptions::default()
+    };
+    // No two points of the volume are farther apart.
+    let diag = dims
+        .iter()
+        .map(|&n| ((n - 1) * (n - 1)) as f64)
+        .sum::<f64>()
+        .sqrt();
+    let mut measured = 0;
+    for q in 0..3 {
+        // S_K is the plane (index coordinate q) = 2.3, a rectangle in the
+        // volume: the distance of any point is known in closed form.
+        let values = grid_fn(dims, |x, y, z| [x, y, z][q]);
+        let vol = Volume::new(&values, dims_u64(dims));
+        // The distance to the rectangle, and whether its nearest point is
+        // the foot of the perpendicular (then every point of the rectangle
+        // is within sqrt(d^2 + diag^2)).
+        let exact = |p: [f64; 3]| {
+            let d = [0, 1, 2].map(|a| {
+                if a == q {
+                    p[a] - 2.3
+                } else {
+                    let hi = (dims[a] - 1) as f64;
+                    (-p[a]).max(p[a] - hi).max(0.0)
+                }
+            });
+            let foot = (0..3).all(|a| a == q || d[a] == 0.0);
+            ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(), foot)
+        };
+        for a in 0..3 {
+            for &m in &far {
+                let hi = (dims[a] - 1) as f64;
+                for x in [-m, m, hi + m, -m + 0.5] {
+                    // Off the volume on axis a only, and on a second axis too.
+                    let mut p = [1.7, 2.5, 3.1];
+                    p[a] = x;
+                    let mut p2 = p;
+                    p2[(a + 1) % 3] = -0.75 * x;
+                    for p in [p, p2] {
+                        let (want, foot) = exact(p);
+                        let d = measure(&vol, 2.3, &[p], &[[0, 0, 0]], &o).unwrap();
+                        assert!(
+                            d.unresolved == 0 && d.samples > 0,
+                            "plane {q}, point {p:?}: {d:?}"
+                        );
+                        // A point of S_K (no nearer than the nearest), within
+                        // the tolerances (1e-5 + 2 %), and in the volume.
+                        let mut most = want + (1e-5 + 0.02 * want).min(diag);
+                        if foot {
+                            most = most.min((want * want + diag * diag).sqrt());
+                        }
+                        assert!(
+                            d.max >= want * (1.0 - 1e-15) && d.max <= most * (1.0 + 1e-15),
+                            "plane {q}, point {p:?}: measured {}, exact {want}",
+                            d.max
+                        );
+                        if foot && want >= 1e7 {
+                            assert!((d.max - want).abs() <= 1e-12 * want);
+                        }
+                        measured += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(measured > 3000, "{measured}");
+    // The report's case: the sampled distance to (3.5, 3.5, 3.5) in an 8^3
+    // volume, contoured at 2 (S_K within a cell of that sphere), from
+    // points 2^56 and 2^100 cells below it along x.
+    let n = 8;
+    let values = grid_fn([n; 3], |x, y, z| {
+        ((x - 3.5).powi(2) + (y - 3.5).powi(2) + (z - 3.5).powi(2)).sqrt()
+    });
+    let vol = Volume::new(&values, [n as u64; 3]);
+    for x in [-2f64.powi(56), -2f64.powi(100)] {
+        let d = measure(&vol, 2.0, &[[x, 1.0, 1.0]], &[[0, 0, 0]], &o).unwrap();
+        assert!(d.unresolved == 0 && d.samples > 0, "x {x}: {d:?}");
+        assert!((d.max / -x - 1.0).abs() <= 1e-12, "x {x}: max {}", d.max);
+    }
+}
+
 /// At the default tolerances every distance is certified against all of
 /// `S_K`, sheets beyond the search's first radius included: a sheet in
 /// cells just outside that radius was not looked at once a nearer box had
