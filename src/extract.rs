@@ -110,8 +110,9 @@ pub fn extract(volume: &Volume<'_>, isovalue: f64, options: &Options) -> Result<
 /// `progress(fraction)` is called on the calling thread, first with 0.0,
 /// then while the work runs (the calling thread works too, and reports
 /// after each of its cell layers, and within a layer, at most every
-/// 20 ms, between refined cells, every few thousand refinement steps and
-/// while it waits for the helper threads to finish theirs), and last with
+/// 20 ms, between refined cells, every few thousand refinement steps, and
+/// of steps of meshing a cell again on sub-cells, and while it waits for
+/// the helper threads to finish theirs), and last with
 /// 1.0 on success. (Plain
 /// Marching Cubes of up to 4 Mi cells on one thread, a few milliseconds
 /// of work, runs with no call in between.)
@@ -1689,7 +1690,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     if accept {
                         break;
                     }
-                    drop_patch(&mut out, &mut map, &mut local, t_start, v_start);
+                    drop_patch(&mut out, &mut map, &mut local, t_start, v_start, None);
                     let samples = out.counters.samples;
                     out.counters = before.clone();
                     out.counters.samples = samples;
@@ -1713,10 +1714,27 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         v_start,
                         above_before: before.above_eps,
                     };
+                    // Polled as refinement is: progress and the stop
+                    // request (the nested extraction and the outlines of
+                    // a large patch take seconds).
+                    let tick = || {
+                        if let Some(p) = sh.poll {
+                            p.poll_timed();
+                        }
+                    };
+                    let poll = subcells::Poll::new(
+                        sh.cancel,
+                        sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
+                    );
                     if count_only {
-                        count_remeshed(&mut out, &count_leaves, &at, opts, sh.max_level);
+                        count_remeshed(&mut out, &count_leaves, &at, opts, sh.max_level, &poll);
                     } else {
-                        remesh_cell(&mut out, &mut map, &mut local, &at, opts, sh.max_level);
+                        let (m, l) = (&mut map, &mut local);
+                        remesh_cell(&mut out, m, l, &at, opts, sh.max_level, &poll);
+                    }
+                    if sh.cancel.load(Ordering::Relaxed) {
+                        // Stopped (the pass's output is dropped).
+                        break 'layers;
                     }
                 }
                 if let Some(p) = sh.poll {
@@ -1816,15 +1834,21 @@ fn try_room<T>(v: &mut Vec<T>, n: usize) -> Result<(), usize> {
 
 /// Removes a cell's patch from the slab: its triangles (and their levels)
 /// from `t_start` on and the points it made, from `v_start` on, with their
-/// entries in the welding maps.
+/// entries in the welding maps. With `poll`, stops removing map entries
+/// once it finds the extraction stopped (the slab's output and its map are
+/// then not used again).
 fn drop_patch(
     out: &mut SlabOut,
     map: &mut KeyMap<u32>,
     local: &mut KeyMap<u32>,
     t_start: usize,
     v_start: usize,
+    poll: Option<&subcells::Poll<'_>>,
 ) {
     for v in out.verts.drain(v_start..) {
+        if poll.is_some_and(|p| p.step().is_none()) {
+            break;
+        }
         map.remove(&key(v));
     }
     local.clear();
@@ -1833,21 +1857,26 @@ fn drop_patch(
 }
 
 /// Numbers the points of a patch `0..` in order of first use: the
-/// patch's triangles over those numbers, and the ids in that order.
-fn renumber(tris: impl Iterator<Item = [u32; 3]>) -> (Vec<[u32; 3]>, Vec<u32>) {
+/// patch's triangles over those numbers, and the ids in that order;
+/// `None` when `poll` finds the extraction stopped.
+fn renumber(
+    tris: impl Iterator<Item = [u32; 3]>,
+    poll: &subcells::Poll<'_>,
+) -> Option<(Vec<[u32; 3]>, Vec<u32>)> {
     let mut ids: Vec<u32> = Vec::new();
     let mut index: HashMap<u32, u32> = HashMap::new();
     let tris = tris
         .map(|t| {
-            t.map(|v| {
+            poll.step()?;
+            Some(t.map(|v| {
                 *index.entry(v).or_insert_with(|| {
                     ids.push(v);
                     ids.len() as u32 - 1
                 })
-            })
+            }))
         })
-        .collect();
-    (tris, ids)
+        .collect::<Option<_>>()?;
+    Some((tris, ids))
 }
 
 /// Moves a re-meshed cell's output in the per-level counts from the old
@@ -1873,22 +1902,26 @@ fn recount(out: &mut SlabOut, old: &[u8], new: &subcells::Remeshed, at: &CellAt<
 
 /// In a pass that only counts: counts the patch that [`remesh_cell`] would
 /// put in place of the cell's stalled one (`leaves`: ids, local
-/// positions, levels).
+/// positions, levels). Stops early, counting nothing, when `poll` finds
+/// the extraction stopped.
 fn count_remeshed(
     out: &mut SlabOut,
     leaves: &[([u32; 3], [DVec3; 3], u8)],
     at: &CellAt<'_>,
     options: &Options,
     max_level: u32,
+    poll: &subcells::Poll<'_>,
 ) {
-    let (old_tris, ids) = renumber(leaves.iter().map(|l| l.0));
+    let Some((old_tris, ids)) = renumber(leaves.iter().map(|l| l.0), poll) else {
+        return;
+    };
     let mut old_pos = vec![DVec3::ZERO; ids.len()];
     for (t, l) in old_tris.iter().zip(leaves) {
         for e in 0..3 {
             old_pos[t[e] as usize] = l.1[e];
         }
     }
-    if let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris) {
+    if let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris, poll) {
         let old: Vec<u8> = leaves.iter().map(|l| l.2).collect();
         recount(out, &old, &new, at, max_level);
     }
@@ -1898,7 +1931,9 @@ fn count_remeshed(
 /// `at.t_start` on) by the one [`subcells::remesh`] makes, when it makes
 /// one. Points from `at.v_start` on were made for the old patch: they are
 /// dropped, and those on its outline made again (so a neighbour still
-/// finds them in `map`); earlier points keep their ids.
+/// finds them in `map`); earlier points keep their ids. When `poll` finds
+/// the extraction stopped, returns early, the cell's patch then possibly
+/// dropped (the pass's output is not used).
 fn remesh_cell(
     out: &mut SlabOut,
     map: &mut KeyMap<u32>,
@@ -1906,19 +1941,29 @@ fn remesh_cell(
     at: &CellAt<'_>,
     options: &Options,
     max_level: u32,
+    poll: &subcells::Poll<'_>,
 ) {
-    let (old_tris, ids) = renumber(out.tris[at.t_start..].iter().copied());
+    let Some((old_tris, ids)) = renumber(out.tris[at.t_start..].iter().copied(), poll) else {
+        return;
+    };
     let old_gp: Vec<DVec3> = ids.iter().map(|&v| out.verts[v as usize]).collect();
     let old_pos: Vec<DVec3> = old_gp.iter().map(|&p| p - at.cell_f).collect();
-    let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris) else {
+    let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris, poll) else {
         return;
     };
     let old_levels = out.levels.split_off(at.t_start);
     recount(out, &old_levels, &new, at, max_level);
-    drop_patch(out, map, local, at.t_start, at.v_start);
+    drop_patch(out, map, local, at.t_start, at.v_start, Some(poll));
+    if poll.now().is_none() {
+        return;
+    }
     let base = ids.len();
     let mut new_id = vec![u32::MAX; base + new.points.len()];
     for t in &new.tris {
+        if poll.step().is_none() {
+            out.tris.truncate(at.t_start);
+            return;
+        }
         let mut tri = [0u32; 3];
         for (x, &v) in t.iter().enumerate() {
             let v = v as usize;

@@ -27,6 +27,7 @@
 use std::cell::Cell;
 use std::collections::HashMap;
 use std::ops::ControlFlow;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec3;
 
@@ -71,6 +72,64 @@ thread_local! {
     /// Set while a cell is meshed on sub-cells: the nested extraction
     /// runs on this thread and must not nest again.
     static NESTED: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Steps of a re-meshing (points or triangles through a loop, a few tens
+/// of nanoseconds each) between two reads of [`Poll::cancel`].
+const POLL_STEPS: u32 = 4096;
+
+/// The extraction's stop request and progress report, as the cell's own
+/// refinement polls them (see [`crate::refine::Refiner::cancel`]): a cell
+/// meshed again at a high max level spends seconds in the nested
+/// extraction and in the outlines of patches of millions of triangles,
+/// during which progress is reported and a stop taken, as anywhere else
+/// (no call was made for 4-6 s on a 4^3 volume at level 10). Polling reads
+/// and changes nothing of the output.
+pub(crate) struct Poll<'a> {
+    /// The extraction's stop request.
+    cancel: &'a AtomicBool,
+    /// Reports progress when on the calling thread (at most every 20 ms).
+    tick: Option<&'a (dyn Fn() + Sync)>,
+    /// Steps since the stop request was last read.
+    steps: Cell<u32>,
+    /// Set once the stop request was found.
+    stopped: Cell<bool>,
+}
+
+impl<'a> Poll<'a> {
+    pub(crate) fn new(cancel: &'a AtomicBool, tick: Option<&'a (dyn Fn() + Sync)>) -> Self {
+        Poll {
+            cancel,
+            tick,
+            steps: Cell::new(0),
+            stopped: Cell::new(false),
+        }
+    }
+
+    /// Counts a step; every [`POLL_STEPS`] steps, [`Poll::now`]. `None`
+    /// once the extraction was found stopped.
+    #[inline]
+    pub(crate) fn step(&self) -> Option<()> {
+        let n = self.steps.get() + 1;
+        if n < POLL_STEPS {
+            self.steps.set(n);
+            return (!self.stopped.get()).then_some(());
+        }
+        self.now()
+    }
+
+    /// Reports progress and reads the stop request: `None` once the
+    /// extraction is stopped.
+    pub(crate) fn now(&self) -> Option<()> {
+        self.steps.set(0);
+        if !self.stopped.get() {
+            if let Some(tick) = self.tick {
+                tick();
+            }
+            self.stopped.set(self.cancel.load(Ordering::Relaxed));
+        }
+        (!self.stopped.get()).then_some(())
+    }
 }
 
 /// Marks this thread as inside a re-meshing until dropped (also when the
@@ -132,13 +191,15 @@ pub(crate) struct Remeshed {
 /// Meshes the cell with corner values `f` (VTK corner order, less the
 /// isovalue) again on sub-cells, keeping the outline of its refined patch
 /// (`old_pos` local, `old_tris` indexing them). `None` when the two
-/// outlines do not pair up arc by arc (the old patch then stays).
+/// outlines do not pair up arc by arc (the old patch then stays), and
+/// when `poll` finds the extraction stopped (the caller reads that).
 pub(crate) fn remesh(
     f: &[f64; 8],
     options: &Options,
     max_level: u32,
     old_pos: &[DVec3],
     old_tris: &[[u32; 3]],
+    poll: &Poll<'_>,
 ) -> Option<Remeshed> {
     let n = SUB + 1;
     let inv = 1.0 / SUB as f64;
@@ -169,6 +230,8 @@ pub(crate) fn remesh(
         threads: 1,
         reconstruction: Reconstruction::Trilinear,
     };
+    // The nested extraction reports its progress (at most every 20 ms,
+    // as refinement does) to the outer one's, and stops with it.
     let mesh = {
         let _nested = Nested::enter();
         extract_index_points(
@@ -176,18 +239,26 @@ pub(crate) fn remesh(
             0.0,
             &sub_options,
             Some(&SerialExecutor),
-            &mut |_| ControlFlow::Continue(()),
+            &mut |_| match poll.now() {
+                Some(()) => ControlFlow::Continue(()),
+                None => ControlFlow::Break(()),
+            },
         )
         .ok()?
     };
+    poll.now()?;
     let new_pos: Vec<DVec3> = mesh
         .index_points
         .iter()
-        .map(|p| DVec3::from_array(*p) * inv)
-        .collect();
-    let new_tris: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v as u32)).collect();
-    let old_arcs = outline(old_pos, old_tris)?;
-    let new_arcs = outline(&new_pos, &new_tris)?;
+        .map(|p| poll.step().map(|_| DVec3::from_array(*p) * inv))
+        .collect::<Option<_>>()?;
+    let new_tris: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| poll.step().map(|_| t.map(|v| v as u32)))
+        .collect::<Option<_>>()?;
+    let old_arcs = outline(old_pos, old_tris, poll)?;
+    let new_arcs = outline(&new_pos, &new_tris, poll)?;
     // One arc from each grid edge the surface crosses, in both outlines.
     let froms = |arcs: &[Arc]| {
         let mut f: Vec<u8> = arcs.iter().map(|a| a.from).collect();
@@ -210,6 +281,7 @@ pub(crate) fn remesh(
     // the old points.
     let mut old_of: Vec<Option<u32>> = vec![None; new_pos.len()];
     for (v, p) in new_pos.iter().enumerate() {
+        poll.step()?;
         if let Some(e) = grid_edge(*p) {
             old_of[v] = Some(*on_edge.get(&e)?);
         }
@@ -222,10 +294,15 @@ pub(crate) fn remesh(
         }
         for &g in &new.verts[1..new.verts.len() - 1] {
             let q = new_pos[g as usize];
-            old_of[g as usize] = old.verts[1..old.verts.len() - 1]
-                .iter()
-                .copied()
-                .find(|&r| (old_pos[r as usize] - q).length_squared() <= WELD2);
+            let mut found = None;
+            for &r in &old.verts[1..old.verts.len() - 1] {
+                poll.step()?;
+                if (old_pos[r as usize] - q).length_squared() <= WELD2 {
+                    found = Some(r);
+                    break;
+                }
+            }
+            old_of[g as usize] = found;
         }
         pairs.push((old, new));
     }
@@ -235,13 +312,15 @@ pub(crate) fn remesh(
         .iter()
         .zip(&new_pos)
         .map(|(o, p)| {
-            o.unwrap_or_else(|| {
+            poll.step()?;
+            Some(o.unwrap_or_else(|| {
                 out.points.push(*p);
                 base + out.points.len() as u32 - 1
-            })
+            }))
         })
-        .collect();
+        .collect::<Option<_>>()?;
     for (t, &l) in new_tris.iter().zip(&mesh.levels) {
+        poll.step()?;
         out.tris.push(t.map(|v| id[v as usize]));
         out.levels.push(l.saturating_add(SUB_LEVELS as u8));
     }
@@ -255,7 +334,7 @@ pub(crate) fn remesh(
     let mut strips = Vec::new();
     for (old, new) in pairs {
         let g: Vec<u32> = new.verts.iter().map(|&v| id[v as usize]).collect();
-        zip(&old.verts, &g, &position, &mut strips)?;
+        zip(&old.verts, &g, &position, &mut strips, poll)?;
     }
     out.levels
         .extend(std::iter::repeat(max_level.min(255) as u8).take(strips.len()));
@@ -306,33 +385,39 @@ pub(crate) fn faces(p: DVec3) -> u8 {
 /// The outline of a patch cut into arcs between grid-edge points; `None`
 /// when it is not a set of simple loops through grid edges, each arc in
 /// one face (a point on a grid corner, a boundary point with two outgoing
-/// boundary edges, a loop inside a face).
-fn outline(pos: &[DVec3], tris: &[[u32; 3]]) -> Option<Vec<Arc>> {
+/// boundary edges, a loop inside a face); also when `poll` finds the
+/// extraction stopped.
+fn outline(pos: &[DVec3], tris: &[[u32; 3]], poll: &Poll<'_>) -> Option<Vec<Arc>> {
     let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
     for t in tris {
+        poll.step()?;
         for e in 0..3 {
             *directed.entry((t[e], t[(e + 1) % 3])).or_default() += 1;
         }
     }
     let mut next: HashMap<u32, u32> = HashMap::new();
     for (&(a, b), &count) in &directed {
+        poll.step()?;
         if count == 1 && !directed.contains_key(&(b, a)) && next.insert(a, b).is_some() {
             return None;
         }
     }
     let mut arcs = Vec::new();
     let mut used = 0;
-    let mut starts: Vec<u32> = next
-        .keys()
-        .copied()
-        .filter(|&v| grid_edge(pos[v as usize]).is_some())
-        .collect();
+    let mut starts: Vec<u32> = Vec::new();
+    for &v in next.keys() {
+        poll.step()?;
+        if grid_edge(pos[v as usize]).is_some() {
+            starts.push(v);
+        }
+    }
     starts.sort_unstable();
     for s in starts {
         let mut verts = vec![s];
         let mut face = faces(pos[s as usize]);
         let mut cur = s;
         loop {
+            poll.step()?;
             cur = *next.get(&cur)?;
             used += 1;
             verts.push(cur);
@@ -367,7 +452,13 @@ fn outline(pos: &[DVec3], tris: &[[u32; 3]]) -> Option<Vec<Arc>> {
 /// the same two arcs the other way and must build the same strip, with
 /// the opposite orientation, for the two strips to cancel (see
 /// [`crate::assemble`]) and its fine outline to meet this one.
-fn zip(r: &[u32], g: &[u32], pos: &impl Fn(u32) -> DVec3, out: &mut Vec<[u32; 3]>) -> Option<()> {
+fn zip(
+    r: &[u32],
+    g: &[u32],
+    pos: &impl Fn(u32) -> DVec3,
+    out: &mut Vec<[u32; 3]>,
+    poll: &Poll<'_>,
+) -> Option<()> {
     let (first, last) = (pos(r[0]), pos(r[r.len() - 1]));
     if last.to_array() < first.to_array() {
         let (rr, gr): (Vec<u32>, Vec<u32>) = (
@@ -375,13 +466,13 @@ fn zip(r: &[u32], g: &[u32], pos: &impl Fn(u32) -> DVec3, out: &mut Vec<[u32; 3]
             g.iter().rev().copied().collect(),
         );
         let from = out.len();
-        zip_forward(&rr, &gr, pos, out)?;
+        zip_forward(&rr, &gr, pos, out, poll)?;
         for t in &mut out[from..] {
             t.swap(1, 2);
         }
         return Some(());
     }
-    zip_forward(r, g, pos, out)
+    zip_forward(r, g, pos, out, poll)
 }
 
 /// [`zip`] from `r[0]` and `g[0]` on.
@@ -390,10 +481,12 @@ fn zip_forward(
     g: &[u32],
     pos: &impl Fn(u32) -> DVec3,
     out: &mut Vec<[u32; 3]>,
+    poll: &Poll<'_>,
 ) -> Option<()> {
     let (m, n) = (r.len() - 1, g.len() - 1);
     let (mut j, mut i) = (0, 0);
     while j < m || i < n {
+        poll.step()?;
         let along_old = i == n
             || (j < m
                 && (pos(r[j + 1]) - pos(g[i])).length_squared()
