@@ -131,27 +131,17 @@ int ContourGhostSamples(
 }
 
 // Whether `dataExtent` is piece `piece` of `pieces` of `splitExtent`, as
-// vtkExtentTranslator cuts it in `splitMode`, without ghost levels or with
-// the `ghostLevels` asked for. (An input that holds ghost levels usually
-// has a cell ghost array, which tells its own cells instead, see
-// OwnCells(); but vtkImageChangeInformation and vtkImageTranslateExtent
-// pass the ghost layer on without it, and taking all such an input's
-// cells as its own contoured the layer in both neighbouring pieces.)
-bool SplitAsAsked(const int dataExtent[6], int piece, int pieces, const int splitExtent[6],
-  int splitMode, int ghostLevels)
+// vtkExtentTranslator cuts it in `splitMode` (without ghost levels: an
+// input that holds ghost levels has ghost arrays, which tell its own cells
+// instead; see OwnCells()).
+bool SplitAsAsked(
+  const int dataExtent[6], int piece, int pieces, const int splitExtent[6], int splitMode)
 {
   vtkNew<vtkExtentTranslator> translator;
-  for (const int levels : { 0, ghostLevels })
-  {
-    int extent[6];
-    if (translator->PieceToExtentThreadSafe(
-          piece, pieces, levels, const_cast<int*>(splitExtent), extent, splitMode, 0) &&
-      std::equal(extent, extent + 6, dataExtent))
-    {
-      return true;
-    }
-  }
-  return false;
+  int extent[6];
+  return translator->PieceToExtentThreadSafe(
+           piece, pieces, 0, const_cast<int*>(splitExtent), extent, splitMode, 0) &&
+    std::equal(extent, extent + 6, dataExtent);
 }
 
 // The point extent of the cells of `input` (extent `dataExtent`) that its
@@ -918,7 +908,7 @@ int vtkPreciseMarchingCubes::Contour(
       : this->ContourPieces > 1 &&
         (input->GetCellGhostArray() != nullptr ||
           !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
-            this->ContourSplitExtent, this->ContourSplitMode, ghostSamples));
+            this->ContourSplitExtent, this->ContourSplitMode));
     int asked[6]; // the piece asked for, before OwnCells() takes the input's own cells
     std::copy(piece, piece + 6, asked);
     if (ownSplit && !OwnCells(input, dataExtent, piece))

@@ -1069,50 +1069,6 @@ def test_hidden_points_hide_their_cells(props, rng):
         assert out.GetNumberOfPolys() == contour.GetOutput().GetNumberOfPolys()
 
 
-@pytest.mark.parametrize("upstream", ["vtkImageChangeInformation", "vtkImageTranslateExtent"])
-@pytest.mark.parametrize("props", [{"Epsilon": 0.0, "ComputeNormals": 0}, {"Epsilon": 0.01}])
-def test_pieces_behind_filters_that_drop_cell_ghosts(upstream, props):
-    """vtkImageChangeInformation and vtkImageTranslateExtent pass a piece's
-    ghost layer on without its cell ghost array. Such an input, the piece
-    asked for grown by the ghost levels asked for, was taken for a volume
-    split its own way, all its cells its own: the ghost layer came out in
-    both neighbouring pieces (2 pieces: 200 triangles twice, silently with
-    Epsilon 0). The pieces' union is the serial surface, each triangle
-    once."""
-    from vtkmodules.vtkImagingCore import (vtkImageChangeInformation, vtkImageTranslateExtent,
-                                           vtkRTAnalyticSource)
-
-    source = vtkRTAnalyticSource()
-    source.SetWholeExtent(-6, 7, -5, 6, -7, 5)
-    if upstream == "vtkImageChangeInformation":
-        moved = vtkImageChangeInformation()
-        moved.SetOutputOrigin(0.5, -1.0, 2.0)
-    else:
-        moved = vtkImageTranslateExtent()
-        moved.SetTranslation(3, -2, 1)
-    moved.SetInputConnection(source.GetOutputPort())
-    f = vtkPreciseMarchingCubes()
-    f.SetInputConnection(moved.GetOutputPort())
-    f.SetValue(0, 170.0)
-    for key, value in props.items():
-        getattr(f, "Set" + key)(value)
-    observer = ErrorObserver(f)
-    f.UpdatePiece(0, 1, 0)
-    serial = coordinate_triangles(f.GetOutput())
-    assert len(serial) > 1000
-    for pieces in (2, 4):
-        parts = []
-        for piece in range(pieces):
-            f.UpdatePiece(piece, pieces, 0)
-            assert moved.GetOutput().GetCellGhostArray() is None
-            parts.append(coordinate_triangles(f.GetOutput()))
-        union = np.concatenate(parts)
-        union = union[np.lexsort(union.T[::-1])]
-        assert union.shape == serial.shape, f"{pieces} pieces"
-        assert np.array_equal(union, serial), f"{pieces} pieces"
-    assert observer.errors == [] and observer.warnings == []
-
-
 def test_pieces_choose_the_serial_points_precision():
     """With the default precision, points are double where float could not
     tell the refined points apart (far from the origin). The choice is the
