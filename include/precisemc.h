@@ -465,7 +465,9 @@ typedef struct pmc_stats {
      */
     uint64_t ambiguous_cells;
     /**
-     * Cells skipped because a corner sample is NaN or infinite.
+     * Cells skipped because a corner sample is NaN or infinite (with a
+     * cubic reconstruction filter, also cells whose 4x4x4 neighbourhood of
+     * samples holds one).
      */
     uint64_t skipped_nonfinite_cells;
     /**
@@ -668,7 +670,8 @@ size_t pmc_last_error_message(char *buf, size_t len);
  * on the thread count, and pieces of a volume that share a layer of
  * samples give bit-identical points on it (see
  * `pmc_options_set_index_offset`). Samples that are NaN or infinite skip
- * their cells. Thread-safe: concurrent calls may share `volume` and
+ * their cells (with a cubic reconstruction filter, every cell whose 4x4x4
+ * neighbourhood holds one). Thread-safe: concurrent calls may share `volume` and
  * `options`.
  *
  * Stack: the calling thread refines cells itself, recursively (one
@@ -1016,8 +1019,11 @@ pmc_status pmc_options_set_rule(struct pmc_options *options, pmc_rule rule);
  * from the samples (the trilinear decision); when refining with a cubic
  * filter, its edge vertices first move along their grid edge onto the
  * filter's isosurface (where the filter brackets one there), and split
- * points move onto it too. The cubic filters need one extra layer of
- * samples around a piece for piece-independent output, and
+ * points move onto it too. The cubic filters need two extra layers of
+ * samples around a piece for piece-independent output
+ * (`PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`: the whole volume, its
+ * prefilter runs along whole lines of samples; see
+ * `pmc_options_set_index_offset`), and
  * `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING` allocates one `double` per
  * sample.
  *
@@ -1153,14 +1159,19 @@ pmc_status pmc_options_set_executor(struct pmc_options *options, pmc_executor_fn
  * Sets the global index of the volume's first sample (VTK's extent start,
  * in samples per axis x, y, z); default (0, 0, 0). With it, the pieces of
  * one volume that share a layer of samples produce bit-identical points
- * where they meet: set each piece's offset to its extent start and its
- * `pmc_volume::origin` to the world position of global index 0.
- * Refining with the trilinear topology from max level 3 up, give each
- * piece one more layer of samples beyond each cut too, and keep only the
- * triangles of its own cells (a triangle belongs to the cell of the floor
- * of its smallest index coordinates), as the VTK filter does: a cell
- * meshed again on sub-cells drops its strip in a face whose neighbour is
- * meshed again too only when the piece holds that neighbour.
+ * where they meet (trilinear filter): set each piece's offset to its
+ * extent start and its `pmc_volume::origin` to the world position of
+ * global index 0. For the serial run's surface exactly, triangles and
+ * normals too, give each piece one more layer of samples beyond each cut
+ * (two with the cubic filters; the whole volume, with the offset of its
+ * start, for `PMC_RECONSTRUCTION_BSPLINE_INTERPOLATING`) and keep only
+ * the triangles of its own cells (a triangle belongs to the cell of the
+ * floor of its smallest index coordinates), as the VTK filter does:
+ * normals and gradients at a point on a cut take the cell beyond it, a
+ * plane of samples equal to the isovalue on a cut leaves flat triangles
+ * that only the cell across cancels, and a cell meshed again on sub-cells
+ * (trilinear topology, max level 3 up) drops its strip in a face whose
+ * neighbour is meshed again too only when the piece holds that neighbour.
  *
  * Each offset must lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`
  * (+/-2^31, which holds every VTK extent). Index points are global

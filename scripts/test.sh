@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Runs every test of the project: the Rust core (unit, integration, property
-# and doc tests, clippy, rustfmt), the C API (sanitizers, valgrind, CMake
-# package) and the VTK filter (CTest and pytest). Installs the Debian
-# packages it needs. Idempotent; quick when nothing changed.
+# Runs every test of the project: the Rust core (rustfmt, clippy, unit,
+# integration, property and doc tests, rustdoc without warnings, the crate
+# as packaged), the C API (sanitizers, valgrind, CMake package), the VTK
+# filter (CTest and pytest), the command-line tool, the benchmark's quick
+# mode, a short fuzzing run and the ParaView plugin (serial and under MPI).
+# Installs the Debian packages it needs. Idempotent; quick when nothing
+# changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/lib.sh

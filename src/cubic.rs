@@ -19,9 +19,12 @@
 //! both cells compute bit-identical values and in-face gradients.
 //!
 //! The clamped border differs from a piece's border in a distributed run:
-//! pieces must carry one extra layer of samples (ghost level 1) for the
-//! cubic filters to give identical results on the shared layer; the
-//! trilinear filter needs none.
+//! pieces must carry two extra layers of samples (ghost level 2) for the
+//! cubic filters to give identical results on the shared layer (one for
+//! the piece's own cells' neighbourhoods, the second so that its ghost
+//! cells compute what the serial run does there), and the interpolating
+//! B-spline's prefilter needs the whole volume (see the crate docs for what
+//! pieces need in general).
 
 use std::marker::PhantomData;
 

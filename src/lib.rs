@@ -16,11 +16,18 @@
 //!
 //! The mesh is welded, consistently oriented (normals towards lower
 //! values), crack-free, and bit-identical for any thread count and any
-//! split of the volume into pieces that share a layer of samples (when
-//! refining with the trilinear topology, pieces that also hold the cells
-//! across their cuts and keep their own cells' triangles: a cell meshed
-//! again on sub-cells drops its strip in a face whose neighbour is meshed
-//! again too; see the README's "How it works").
+//! split of the volume into pieces that hold the cells across their cuts
+//! (one layer of ghost cells; two with the cubic filters, the whole
+//! volume with B-spline Interpolating) and keep their own cells'
+//! triangles, as the VTK filter does. Pieces that share only their
+//! boundary layer of samples meet with bit-identical points for the
+//! trilinear filter, but not always with the serial run's triangles and
+//! normals: normals and gradients at a point on a cut take the cell
+//! beyond it, a plane of samples equal to the isovalue on a cut leaves
+//! flat triangles that only the cell across cancels, and refinement with
+//! the trilinear topology from max level 3 up may mesh a cell again on
+//! sub-cells, whose strip in a face is dropped only where the neighbour is
+//! meshed again too (see the README's "How it works").
 //!
 //! ```
 //! use precisemc::{extract, Options, Volume};

@@ -19,7 +19,9 @@ pub struct Stats {
     /// Cells whose topology was decided by the trilinear test (ambiguous
     /// faces or body-diagonal cases); 0 in `Classic` mode.
     pub ambiguous_cells: u64,
-    /// Cells skipped because a corner sample is NaN or infinite.
+    /// Cells skipped because a corner sample is NaN or infinite (with a
+    /// cubic reconstruction filter, also cells whose 4x4x4 neighbourhood of
+    /// samples holds one).
     pub skipped_nonfinite_cells: u64,
     /// Highest refinement level of an output triangle (the paper's maxL).
     pub max_level: u32,
@@ -147,8 +149,9 @@ pub struct Mesh {
     pub index_points: Vec<[f64; 3]>,
     /// Three point indices per triangle.
     pub triangles: Vec<[u64; 3]>,
-    /// Unit normals per point (empty when not requested); (0, 0, 0) where
-    /// the data gives no direction (see [`crate::NormalMode`]).
+    /// Unit normals per point, in world space, pointing towards lower
+    /// values (empty when not requested); (0, 0, 0) where the data gives no
+    /// direction (see [`crate::NormalMode`]).
     pub normals: Vec<[f32; 3]>,
     /// Scalar gradient per point, in sample value per world length unit,
     /// pointing towards higher values (empty unless

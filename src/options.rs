@@ -6,7 +6,8 @@ pub enum Topology {
     /// Inside every cell the mesh has the topology of the isosurface of the
     /// trilinear interpolant (asymptotic decider on faces, interior
     /// connectivity from the exact trilinear function, tunnels included).
-    /// Cells without ambiguity use the same triangles as `Classic`.
+    /// Cells without ambiguity use the same triangles as `Classic`. The
+    /// default.
     #[default]
     Trilinear,
     /// The case table of `vtkMarchingCubes`: with refinement off the output
@@ -23,7 +24,8 @@ pub enum Topology {
 pub enum Rule {
     /// Edge midpoints only: 1-, 2- or 3-edge splits.
     A,
-    /// Rule A, then the centroid in a second phase when no edge splits.
+    /// Rule A, then the centroid in a second phase when no edge splits. The
+    /// default.
     #[default]
     A1,
     /// Rule A, then always a fourth point in a second phase: the centroid
@@ -56,7 +58,7 @@ impl Rule {
 /// rounded, e.g. for an extent not starting at 0).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum NormalMode {
-    /// No normals.
+    /// No normals. The default.
     #[default]
     None,
     /// The exact gradient of the trilinear interpolant at the point
@@ -78,7 +80,8 @@ pub enum NormalMode {
 /// the filter's isosurface (where the filter brackets one there).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Reconstruction {
-    /// The trilinear interpolant of each cell (the paper's filter).
+    /// The trilinear interpolant of each cell (the paper's filter). The
+    /// default.
     #[default]
     Trilinear,
     /// Tricubic Catmull–Rom: interpolating, C1, exact on quadratics.
@@ -118,8 +121,11 @@ pub struct Options {
     /// requested each normal is its point's negated, normalised gradient
     /// (to float32 rounding). Default `false`.
     pub gradients: bool,
-    /// Cap on output triangles; 0 = no cap of the caller's (the internal
-    /// safety cap [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
+    /// Cap on output triangles: refinement stops at the highest level whose
+    /// output fits ([`crate::Stats::budget_reached`] then says so). The
+    /// Marching Cubes triangles are always kept, so a cap below their count
+    /// is exceeded. 0 = no cap of the caller's (the internal safety cap
+    /// [`crate::HARD_TRIANGLE_CAP`] still applies). Default 0.
     pub max_triangles: u64,
     /// The most worker threads; 0 = all cores. Default 0. Values above
     /// [`crate::MAX_THREADS`] are clamped. The output does not depend on it.

@@ -59,7 +59,8 @@ pub(super) fn failure(e: Error) -> Failure {
 /// on the thread count, and pieces of a volume that share a layer of
 /// samples give bit-identical points on it (see
 /// `pmc_options_set_index_offset`). Samples that are NaN or infinite skip
-/// their cells. Thread-safe: concurrent calls may share `volume` and
+/// their cells (with a cubic reconstruction filter, every cell whose 4x4x4
+/// neighbourhood holds one). Thread-safe: concurrent calls may share `volume` and
 /// `options`.
 ///
 /// Stack: the calling thread refines cells itself, recursively (one

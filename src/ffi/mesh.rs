@@ -104,7 +104,9 @@ pub struct pmc_stats {
     /// Cells whose topology was decided by the trilinear test; 0 with
     /// `PMC_TOPOLOGY_CLASSIC`.
     pub ambiguous_cells: u64,
-    /// Cells skipped because a corner sample is NaN or infinite.
+    /// Cells skipped because a corner sample is NaN or infinite (with a
+    /// cubic reconstruction filter, also cells whose 4x4x4 neighbourhood of
+    /// samples holds one).
     pub skipped_nonfinite_cells: u64,
     /// Sample points tested against the ideal surface.
     pub samples_evaluated: u64,
