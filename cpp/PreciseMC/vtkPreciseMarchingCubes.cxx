@@ -199,6 +199,74 @@ bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
   return true;
 }
 
+// The point extent of the cells of `input` (extent `dataExtent`) none of
+// whose corners its point ghost array marks as duplicates, into `box`;
+// false when the input has a cell ghost array (OwnCells() reads that), no
+// point ghost array marking a duplicate, or no such cell. For a piece that
+// arrives grown by the ghost levels asked for but with the point ghost
+// array only (vtkImageChangeInformation and vtkImageTranslateExtent pass
+// the point data on, not the cell data): VTK marks the points outside the
+// piece's own extent, so a cell with such a corner is another piece's.
+bool OwnCellsByPoints(vtkImageData* input, const int dataExtent[6], int box[6])
+{
+  vtkUnsignedCharArray* ghosts = input->GetPointGhostArray();
+  if (input->GetCellGhostArray() || !ghosts || ghosts->GetNumberOfComponents() != 1)
+  {
+    return false;
+  }
+  vtkIdType cells[3];
+  for (int i = 0; i < 3; ++i)
+  {
+    cells[i] = static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i];
+  }
+  if (cells[0] < 1 || cells[1] < 1 || cells[2] < 1 ||
+    ghosts->GetNumberOfTuples() != (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1))
+  {
+    return false;
+  }
+  const unsigned char* flag = ghosts->GetPointer(0);
+  auto duplicate = [&](vtkIdType i, vtkIdType j, vtkIdType k) {
+    return (flag[i + (cells[0] + 1) * (j + (cells[1] + 1) * k)] &
+             vtkDataSetAttributes::DUPLICATEPOINT) != 0;
+  };
+  vtkIdType lo[3] = { cells[0], cells[1], cells[2] };
+  vtkIdType hi[3] = { -1, -1, -1 };
+  bool any = false;
+  for (vtkIdType k = 0; k < cells[2]; ++k)
+  {
+    for (vtkIdType j = 0; j < cells[1]; ++j)
+    {
+      for (vtkIdType i = 0; i < cells[0]; ++i)
+      {
+        const bool dup = duplicate(i, j, k) || duplicate(i + 1, j, k) ||
+          duplicate(i, j + 1, k) || duplicate(i + 1, j + 1, k) || duplicate(i, j, k + 1) ||
+          duplicate(i + 1, j, k + 1) || duplicate(i, j + 1, k + 1) ||
+          duplicate(i + 1, j + 1, k + 1);
+        any = any || dup;
+        if (!dup)
+        {
+          const vtkIdType at[3] = { i, j, k };
+          for (int d = 0; d < 3; ++d)
+          {
+            lo[d] = std::min(lo[d], at[d]);
+            hi[d] = std::max(hi[d], at[d]);
+          }
+        }
+      }
+    }
+  }
+  if (!any || hi[0] < 0)
+  {
+    return false;
+  }
+  for (int d = 0; d < 3; ++d)
+  {
+    box[2 * d] = dataExtent[2 * d] + static_cast<int>(lo[d]);
+    box[2 * d + 1] = dataExtent[2 * d] + static_cast<int>(hi[d]) + 1;
+  }
+  return true;
+}
+
 // Whether the input's cell ghost array marks any cell as a duplicate of
 // another piece's.
 bool HasDuplicateCells(vtkImageData* input)
@@ -902,13 +970,21 @@ int vtkPreciseMarchingCubes::Contour(
     // ghost array does not mark as duplicates; without one, the piece asked
     // for, unless the input is not that either (split by an upstream filter
     // its own way, as Resample To Image does: then all its cells).
+    // (A piece grown by its ghost layer, with the point ghost array only,
+    // is the piece asked for when the cells without a duplicate corner are
+    // that piece: see OwnCellsByPoints().)
     const bool wholeInput = std::equal(dataExtent, dataExtent + 6, whole);
+    auto asAsked = [&](const int e[6]) {
+      return SplitAsAsked(
+        e, this->ContourPiece, this->ContourPieces, this->ContourSplitExtent, this->ContourSplitMode);
+    };
+    int byPoints[6];
     const bool ownSplit = wholeInput
       ? this->ContourPieces == 1 && HasDuplicateCells(input)
       : this->ContourPieces > 1 &&
         (input->GetCellGhostArray() != nullptr ||
-          !SplitAsAsked(dataExtent, this->ContourPiece, this->ContourPieces,
-            this->ContourSplitExtent, this->ContourSplitMode));
+          !(asAsked(dataExtent) ||
+            (OwnCellsByPoints(input, dataExtent, byPoints) && asAsked(byPoints))));
     int asked[6]; // the piece asked for, before OwnCells() takes the input's own cells
     std::copy(piece, piece + 6, asked);
     if (ownSplit && !OwnCells(input, dataExtent, piece))

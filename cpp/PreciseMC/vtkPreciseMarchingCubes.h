@@ -82,7 +82,11 @@
  * that an upstream filter split its own way (neither the piece asked for
  * nor the whole volume, as Resample To Image delivers) is contoured on its
  * own cells (those its ghost array does not mark as duplicates), so the
- * pieces still cover the volume once; without the ghost layer the run
+ * pieces still cover the volume once. A piece grown by the ghost layer
+ * asked for that carries a point ghost array only (vtkImageChangeInformation
+ * and vtkImageTranslateExtent pass the point data on, not the cell data)
+ * is the piece asked for when its cells without a corner flagged
+ * DUPLICATEPOINT are that piece: the rest is its ghost layer. Without the ghost layer the run
  * needs, the surface next to the cuts may then differ from the serial one,
  * and the filter warns (not for flat triangles on a cut where samples
  * equal the isovalue); so it does for an input that is the piece asked for

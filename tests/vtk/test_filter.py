@@ -976,6 +976,58 @@ def test_pieces_equal_the_serial_surface(name):
         assert np.array_equal(union, serial), f"{pieces} pieces"
 
 
+@pytest.mark.parametrize("stage", ["change-information", "translate-extent"])
+@pytest.mark.parametrize("props", [{"Epsilon": 0.0}, {"Epsilon": 0.01, "MaxLevel": 5}])
+def test_pieces_through_filters_that_pass_point_ghosts_only_equal_the_serial_surface(
+        stage, props):
+    """vtkImageChangeInformation and vtkImageTranslateExtent pass a piece on
+    grown by the ghost levels asked for, with its point ghost array but not
+    its cell ghost array. The filter took such a piece for a volume split
+    its own way and contoured its ghost layer too (2 pieces: 200 of 1422
+    triangles twice, without a warning); the point flags tell the piece's
+    own cells."""
+    from vtkmodules.vtkImagingCore import (vtkImageChangeInformation, vtkImageTranslateExtent,
+                                           vtkRTAnalyticSource)
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
+    if stage == "change-information":
+        between = vtkImageChangeInformation()
+        between.SetOriginTranslation(2.5, -1.0, 0.5)
+    else:
+        between = vtkImageTranslateExtent()
+        between.SetTranslation(3, -2, 5)
+    between.SetInputConnection(source.GetOutputPort())
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(between.GetOutputPort())
+    f.SetValue(0, 150.0)
+    f.SetValue(1, 200.0)
+    f.SetOutputPointsPrecision(1)
+    for name, value in props.items():
+        getattr(f, "Set" + name)(value)
+    observer = ErrorObserver(f)
+    f.UpdatePiece(0, 1, 0)
+    serial = coordinate_triangles(f.GetOutput())
+    assert len(serial) > 1000
+    for pieces in (2, 3, 4):
+        parts = []
+        for piece in range(pieces):
+            f.UpdatePiece(piece, pieces, 0)
+            parts.append(coordinate_triangles(f.GetOutput()))
+            assert len(parts[-1]) > 0
+            # The case covered: a piece grown by its ghost layer, with no
+            # cell ghost array.
+            data = between.GetOutput()
+            assert data.GetCellData().GetArray("vtkGhostType") is None
+            assert data.GetPointData().GetArray("vtkGhostType") is not None
+            assert data.GetNumberOfPoints() > 17 * 17 * 17 / pieces
+        union = np.concatenate(parts)
+        union = union[np.lexsort(union.T[::-1])]
+        assert union.shape == serial.shape, f"{pieces} pieces"
+        assert np.array_equal(union, serial), f"{pieces} pieces"
+    assert not observer.errors and not observer.warnings, observer.warnings
+
+
 @pytest.mark.parametrize("props", [
     {"Epsilon": 0.0, "Topology": 1},
     {"Epsilon": 0.0},
