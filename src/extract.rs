@@ -1087,7 +1087,18 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 // With a filter that is not linear on grid edges, the
                 // refinement starts from crossings on its own isosurface.
                 let edge_filter = if REFINE && !F::LINEAR_ON_EDGES {
-                    sh.filter.load([i, j, k])
+                    let Some(fc) = sh.filter.load([i, j, k]) else {
+                        // A neighbourhood with a NaN or infinite sample:
+                        // the cell is skipped (as below), before it places
+                        // any crossing. Placed here, at the linear crossing,
+                        // a point would stay there for a neighbour that
+                        // refines and moves its crossings onto the filter's
+                        // isosurface, depending on which cell came first
+                        // (the thread count, the slabs, the pieces).
+                        out.nonfinite += 1;
+                        continue;
+                    };
+                    Some(fc)
                 } else {
                     None
                 };
