@@ -286,9 +286,10 @@ fn distance_to_the_surface_shrinks_with_epsilon() {
                 }
                 if eps == 0.002 {
                     // Every sample of an output triangle, tested or not, is
-                    // close to S_K.
+                    // close to S_K (0.0020-0.0027 measured over the rules
+                    // and topologies in the fifty-first session).
                     assert!(
-                        max < 0.01,
+                        max < 2.0 * eps,
                         "{topology:?} {rule:?}: max distance {max} at eps {eps}"
                     );
                     assert!(
@@ -328,10 +329,12 @@ fn thin_features_refine_where_gradient_lines_miss() {
     // kept triangles of its tunnels folded over such edges 0.25 cells
     // away at every epsilon (now 0.013).
     use precisemc::samples;
+    // (Measured in the fifty-first session: max 0.0047, 0.0035 and 0.015,
+    // mean about 0.00022 on the tube and the atoms.)
     for (s, max_bound, mean_bound) in [
-        (samples::tube(48), 0.02, 0.001),
-        (samples::atoms(40), 0.03, 0.001),
-        (samples::marschner_lobb(41), 0.03, 0.00033),
+        (samples::tube(48), 0.008, 0.0004),
+        (samples::atoms(40), 0.006, 0.0004),
+        (samples::marschner_lobb(41), 0.022, 0.00033),
     ] {
         let (mesh, m) = refined_at_a_thousandth(&s, 2);
         assert!(
@@ -355,15 +358,18 @@ fn polygons_are_recut_where_table_diagonals_cannot_reach_the_surface() {
     // the part of the cell S_K never enters: its midpoint's nearest point
     // of S_K lies on the cell's boundary, so refinement cannot move it and
     // its triangles stay far away at any epsilon (atoms: 0.18 cells, tube:
-    // 0.10 without re-cutting, measured independently). Re-cut along
-    // diagonals refinement can follow, the max distance falls below 0.07
-    // (0.053 and 0.036 measured).
+    // 0.10 without re-cutting, measured independently when it was added).
+    // Re-cut along diagonals refinement can follow, the max distance fell
+    // below 0.07 (0.053 and 0.036 then). Since then edges checked along
+    // their length and cells meshed again on sub-cells bring those
+    // triangles close too (0.0032 and 0.0042 with or without the re-cut,
+    // fifty-first session): the bound guards the combination.
     use precisemc::samples;
     for s in [samples::atoms(40), samples::tube(48)] {
         let (mesh, m) = refined_at_a_thousandth(&s, 3);
         assert!(mesh.stats.recut_polygons > 0, "{}: nothing re-cut", s.name);
         let vol = s.volume();
-        assert!(m.max < 0.07, "{}: max {} mean {}", s.name, m.max, m.mean);
+        assert!(m.max < 0.007, "{}: max {} mean {}", s.name, m.max, m.mean);
         // Plain Marching Cubes is the case table's, untouched.
         let mc = extract(
             &vol,
@@ -413,8 +419,9 @@ fn fans_bridge_two_sheets_of_a_pinched_cell() {
     // in 92 % of the cells below). The fan centre now sits where every
     // spoke follows a sheet. Checked on the cell and on 200 neighbours of
     // it (the weak corner from 0.5 to 6, the others scaled by 0.85-1.15),
-    // measured independently; about 4 % of them still keep a triangle
-    // over 0.3 cells away).
+    // measured independently; about 4 % of them kept a triangle over 0.3
+    // cells away when this was added, none over 0.05 in the fifty-first
+    // session, where the tube's cell measured 0.0095).
     let base = [87.5, 1.5, -31.5, -21.5, -14.5, -24.5, 7.5, 95.5];
     let mut rng = Rng::new(0x9e37_79b9_7f4a_7c15);
     let mut far = 0;
@@ -448,12 +455,12 @@ fn fans_bridge_two_sheets_of_a_pinched_cell() {
         )
         .unwrap();
         if trial == 0 {
-            assert!(m.max < 0.05, "the tube's cell: max {} cells", m.max);
+            assert!(m.max < 0.015, "the tube's cell: max {} cells", m.max);
         }
         far += usize::from(m.max > 0.05);
     }
     assert!(
-        far * 10 < TRIALS,
+        far * 100 <= TRIALS,
         "{far} of {TRIALS} cells keep far triangles"
     );
 }
