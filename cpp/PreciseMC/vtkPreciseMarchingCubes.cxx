@@ -890,6 +890,23 @@ int vtkPreciseMarchingCubes::Contour(
   input->GetExtent(dataExtent);
   int dataDims[3];
   input->GetDimensions(dataDims);
+  // Ghost arrays that do not fit the image (an upstream filter's fault:
+  // VTK 9.1's Extract Subset with a sample rate under MPI) tell nothing of
+  // which cells are the piece's own or hidden: read as absent, said.
+  for (vtkUnsignedCharArray* flags : { input->GetCellGhostArray(), input->GetPointGhostArray() })
+  {
+    const bool cells = flags == input->GetCellGhostArray();
+    const vtkIdType want = cells ? input->GetNumberOfCells() : input->GetNumberOfPoints();
+    if (flags && (flags->GetNumberOfComponents() != 1 || flags->GetNumberOfTuples() != want))
+    {
+      vtkWarningMacro(<< "The input's " << (cells ? "cell" : "point") << " ghost array holds "
+                      << flags->GetNumberOfTuples() << " tuples of "
+                      << flags->GetNumberOfComponents() << " component(s) for " << want << " "
+                      << (cells ? "cells" : "points")
+                      << ": it is ignored, so a distributed piece's ghost layer or blanking "
+                         "may be taken for its own cells");
+    }
+  }
   int extent[6];
   std::copy(dataExtent, dataExtent + 6, extent);
   if (inInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT()))

@@ -407,6 +407,31 @@ def test_abort_from_progress_observer():
     assert f.GetOutput().GetNumberOfPolys() > 0
 
 
+@pytest.mark.parametrize("threads", [1, 2])
+def test_progress_runs_from_0_to_1_over_every_contour_value(threads):
+    """ProgressEvent values over three contour values: 0 first, 1 last,
+    never decreasing, within [0, 1], and reported during each value's run
+    (the aborts above stop at the first event and would pass with progress
+    reported only at the end, or beyond 1)."""
+    image = wavelet(16)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(image)
+    for i, v in enumerate((120.0, 150.0, 200.0)):
+        f.SetValue(i, v)
+    f.SetEpsilon(0.0005)
+    f.SetNumberOfThreads(threads)
+    seen = []
+    f.AddObserver(vtkCommand.ProgressEvent, lambda obj, event: seen.append(obj.GetProgress()))
+    f.Update()
+    assert f.GetOutput().GetNumberOfPolys() > 0
+    assert seen[0] == 0.0 and seen[-1] == 1.0, seen
+    assert all(0.0 <= p <= 1.0 for p in seen), seen
+    assert all(a <= b for a, b in zip(seen, seen[1:])), seen
+    # Reported inside each third of the run, not only at its ends.
+    for third in range(3):
+        assert any(third / 3 < p < (third + 1) / 3 for p in seen), (third, seen)
+
+
 def test_abort_with_smp_tools_on_the_stdthread_backend():
     # STDThread runs none of a For's range on the calling thread, where
     # the library reports progress: the filter's executor makes the caller
@@ -1026,6 +1051,37 @@ def test_pieces_through_filters_that_pass_point_ghosts_only_equal_the_serial_sur
         assert union.shape == serial.shape, f"{pieces} pieces"
         assert np.array_equal(union, serial), f"{pieces} pieces"
     assert not observer.errors and not observer.warnings, observer.warnings
+
+
+@pytest.mark.parametrize("where", ["cell", "point"])
+def test_ghost_arrays_that_do_not_fit_the_image_are_ignored_with_a_warning(where):
+    """A ghost array whose length is not the number of cells (or points),
+    as VTK 9.1's Extract Subset with a sample rate delivers under MPI, was
+    ignored without a word (pieces lost triangles). It is still ignored,
+    the surface is the one without it, and the filter says so."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes, vtkImageData
+
+    image = wavelet(6)
+    plain = coordinate_triangles(precise(image, [150.0], OutputPointsPrecision=1).GetOutput())
+    flagged = vtkImageData()
+    flagged.DeepCopy(image)
+    flags = np.full(64, vtkDataSetAttributes.DUPLICATECELL | vtkDataSetAttributes.HIDDENCELL,
+                    dtype=np.uint8)
+    ghosts = numpy_to_vtk(flags, deep=1, array_type=3)  # VTK_UNSIGNED_CHAR
+    ghosts.SetName("vtkGhostType")
+    data = flagged.GetCellData() if where == "cell" else flagged.GetPointData()
+    data.AddArray(ghosts)
+    f = vtkPreciseMarchingCubes()
+    f.SetInputData(flagged)
+    f.SetValue(0, 150.0)
+    f.SetOutputPointsPrecision(1)
+    observer = ErrorObserver(f)
+    f.Update()
+    assert not observer.errors
+    assert len(observer.warnings) == 1, observer.warnings
+    assert f"{where} ghost array holds 64 tuples" in observer.warnings[0]
+    assert np.array_equal(coordinate_triangles(f.GetOutput()), plain)
 
 
 @pytest.mark.parametrize("props", [
