@@ -128,6 +128,53 @@ fn closed_fields_give_closed_oriented_manifolds() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The same closed fields refined onto the cubic filters' isosurfaces, with
+/// every rule and topology: closed, oriented manifolds of the expected
+/// topology (the tests of tests/cubic.rs cover one blob field with rule A1
+/// and mirror-symmetric volumes).
+#[test]
+fn closed_fields_stay_closed_on_the_cubic_filters() {
+    let mut failures = Vec::new();
+    let mut runs = 0;
+    for (name, dims, values, expect) in closed_fields() {
+        let vol = Volume::new(&values, dims_u64(dims));
+        for reconstruction in [
+            Reconstruction::CatmullRom,
+            Reconstruction::BSpline,
+            Reconstruction::BSplineInterpolating,
+        ] {
+            for topology in TOPOLOGIES {
+                for rule in RULES {
+                    let opts = Options {
+                        reconstruction,
+                        ..refine_opts(topology, rule, 0.01, 3)
+                    };
+                    let mesh = extract(&vol, 0.0, &opts).unwrap();
+                    assert_sane(&mesh);
+                    let c = check_mesh(&mesh);
+                    let vol_sign = signed_volume(&mesh.index_points, &mesh.triangles);
+                    let mut bad = !c.is_closed_oriented_manifold()
+                        || c.unreferenced != 0
+                        || vol_sign <= 0.0
+                        || c.triangles == 0
+                        || c.euler % 2 != 0;
+                    if let Some((comps, euler)) = expect {
+                        bad |= c.components != comps || c.euler != euler;
+                    }
+                    if bad {
+                        failures.push(format!(
+                            "{name} / {reconstruction:?} {topology:?} {rule:?}: volume {vol_sign}, {c:?}"
+                        ));
+                    }
+                    runs += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(runs, 5 * 3 * 2 * 4);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// The enclosed volume of a sphere is close to the ball's, and refinement
 /// brings it closer (the trilinear surface of r - |x| is very near the
 /// sphere).

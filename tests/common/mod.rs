@@ -704,6 +704,7 @@ pub fn same_mesh(a: &Mesh, b: &Mesh) -> bool {
         && a.triangles == b.triangles
         && a.levels == b.levels
         && nbits(&a.normals) == nbits(&b.normals)
+        && nbits(&a.gradients) == nbits(&b.gradients)
 }
 
 /// Asserts that no coordinate of the mesh is NaN or infinite and that the
