@@ -62,6 +62,25 @@ fn closed_fields() -> Vec<Field> {
     ]
 }
 
+/// What is wrong with `mesh` (checked sane first) when it is not a closed,
+/// oriented manifold enclosing a positive volume, with an even Euler
+/// characteristic and, where given, the expected (components, Euler
+/// characteristic); `None` when it is.
+fn not_closed(mesh: &precisemc::Mesh, expect: Option<(usize, i64)>) -> Option<String> {
+    assert_sane(mesh);
+    let c = check_mesh(mesh);
+    let vol_sign = signed_volume(&mesh.index_points, &mesh.triangles);
+    let mut bad = !c.is_closed_oriented_manifold()
+        || c.unreferenced != 0
+        || vol_sign <= 0.0
+        || c.triangles == 0
+        || c.euler % 2 != 0;
+    if let Some((comps, euler)) = expect {
+        bad |= c.components != comps || c.euler != euler;
+    }
+    bad.then(|| format!("volume {vol_sign}, {c:?}"))
+}
+
 #[test]
 fn closed_fields_give_closed_oriented_manifolds() {
     let mut failures = Vec::new();
@@ -69,21 +88,8 @@ fn closed_fields_give_closed_oriented_manifolds() {
         let vol = Volume::new(&values, dims_u64(dims));
         for (cfg, opts) in configs() {
             let mesh = extract(&vol, 0.0, &opts).unwrap();
-            assert_sane(&mesh);
-            let c = check_mesh(&mesh);
-            let vol_sign = signed_volume(&mesh.index_points, &mesh.triangles);
-            let mut bad = !c.is_closed_oriented_manifold()
-                || c.unreferenced != 0
-                || vol_sign <= 0.0
-                || c.triangles == 0;
-            if let Some((comps, euler)) = expect {
-                bad |= c.components != comps || c.euler != euler;
-            }
-            if c.euler % 2 != 0 {
-                bad = true;
-            }
-            if bad {
-                failures.push(format!("{name} / {cfg}: volume {vol_sign}, {c:?}"));
+            if let Some(what) = not_closed(&mesh, expect) {
+                failures.push(format!("{name} / {cfg}: {what}"));
             }
             // Each point refinement adds is a split point, counted once
             // per cell that inserts it: once inside a cell, twice on a
@@ -150,20 +156,9 @@ fn closed_fields_stay_closed_on_the_cubic_filters() {
                         ..refine_opts(topology, rule, 0.01, 3)
                     };
                     let mesh = extract(&vol, 0.0, &opts).unwrap();
-                    assert_sane(&mesh);
-                    let c = check_mesh(&mesh);
-                    let vol_sign = signed_volume(&mesh.index_points, &mesh.triangles);
-                    let mut bad = !c.is_closed_oriented_manifold()
-                        || c.unreferenced != 0
-                        || vol_sign <= 0.0
-                        || c.triangles == 0
-                        || c.euler % 2 != 0;
-                    if let Some((comps, euler)) = expect {
-                        bad |= c.components != comps || c.euler != euler;
-                    }
-                    if bad {
+                    if let Some(what) = not_closed(&mesh, expect) {
                         failures.push(format!(
-                            "{name} / {reconstruction:?} {topology:?} {rule:?}: volume {vol_sign}, {c:?}"
+                            "{name} / {reconstruction:?} {topology:?} {rule:?}: {what}"
                         ));
                     }
                     runs += 1;
