@@ -10,16 +10,24 @@ use crate::recycle;
 use crate::volume::{Scalar, Volume};
 use crate::Error;
 
-/// The cell holding global index point `p`, clamped to the volume, and the
-/// local coordinates of `p` in it.
+/// The cell holding global index point `p`, clamped to the volume (whose
+/// first sample has global index `off`), and the local coordinates of `p`
+/// in it. The floor is taken of the global coordinate, not of `p - off`,
+/// which rounds (2.9999999999999996 + 2 is 5): pieces of a volume with
+/// different offsets located a point a rounding below a grid plane in
+/// different cells, and its gradient, which jumps across the plane,
+/// differed between them.
 fn locate(p: DVec3, dims: [usize; 3], off: [i64; 3]) -> ([usize; 3], DVec3) {
     let mut c = [0usize; 3];
     let mut l = DVec3::ZERO;
     for a in 0..3 {
-        let rel = p[a] - off[a] as f64;
-        let i = (rel.floor().max(0.0) as usize).min(dims[a] - 2);
+        // Integers of at most 2^52 in magnitude here: exact.
+        let rel = p[a].floor() - off[a] as f64;
+        let i = (rel.max(0.0) as usize).min(dims[a] - 2);
         c[a] = i;
-        l[a] = rel - i as f64;
+        // Exact where `i` is the floor's cell (p minus its floor), and
+        // the same in every piece holding that cell.
+        l[a] = p[a] - (off[a] as f64 + i as f64);
     }
     (c, l)
 }
@@ -280,4 +288,57 @@ fn per_point<T: Scalar>(
         })?,
     }
     Ok(result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The next float above (`up`) or below `x` (finite, non-zero).
+    fn step(x: f64, up: bool) -> f64 {
+        if (x > 0.0) == up {
+            f64::from_bits(x.to_bits() + 1)
+        } else {
+            f64::from_bits(x.to_bits() - 1)
+        }
+    }
+
+    /// A global point's cell (as a global index) and local coordinates do
+    /// not depend on the offset of the volume holding it, also a rounding
+    /// away from a grid plane (`p - off` rounded onto the plane for some
+    /// offsets: the gradient of the cell across it was taken).
+    #[test]
+    fn a_point_is_located_alike_at_every_offset() {
+        let dims = [64usize; 3];
+        let mut checked = 0;
+        // Every volume holds the global cells -41..12: none is clamped.
+        for k in -40i64..12 {
+            let kf = k as f64;
+            let mut points = vec![kf + 0.5, kf + 0.1];
+            if k != 0 {
+                points.extend([kf, step(kf, false), step(kf, true)]);
+            }
+            for x in points {
+                let p = DVec3::splat(x);
+                let mut seen: Option<([i64; 3], DVec3)> = None;
+                for off in [-50i64, -47, -44, -41, -45] {
+                    let (c, l) = locate(p, dims, [off; 3]);
+                    let global = c.map(|i| off + i as i64);
+                    match seen {
+                        None => seen = Some((global, l)),
+                        Some((g, sl)) => {
+                            assert_eq!(global, g, "point {x}, offset {off}");
+                            assert_eq!(
+                                l.to_array().map(f64::to_bits),
+                                sl.to_array().map(f64::to_bits),
+                                "point {x}, offset {off}"
+                            );
+                        }
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000);
+    }
 }
