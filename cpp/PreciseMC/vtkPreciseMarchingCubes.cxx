@@ -144,38 +144,21 @@ bool SplitAsAsked(
     std::equal(extent, extent + 6, dataExtent);
 }
 
-// The point extent of the cells of `input` (extent `dataExtent`) that its
-// cell ghost array does not mark as duplicates, into `piece` (the whole
-// `dataExtent` without such an array); false when every cell is a ghost.
-// For an input that arrives split otherwise than the filter asked (an
-// upstream filter that splits the volume its own way, as Resample To
-// Image does): the pieces' own cells then still cover the volume once,
-// where cropping to the piece asked for left a slab between two pieces
-// that neither contoured.
-bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
+// The point extent of the cells of an image of `cells` cells per axis
+// (from `dataExtent`) that `duplicate(i, j, k)` does not mark as another
+// piece's, into `box`; false when it marks every cell.
+template <typename Duplicate>
+bool OwnBox(const int dataExtent[6], const vtkIdType cells[3], Duplicate duplicate, int box[6])
 {
-  std::copy(dataExtent, dataExtent + 6, piece);
-  vtkUnsignedCharArray* ghosts = input->GetCellGhostArray();
-  vtkIdType cells[3];
-  for (int i = 0; i < 3; ++i)
-  {
-    cells[i] = static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i];
-  }
-  if (!ghosts || cells[0] < 1 || cells[1] < 1 || cells[2] < 1 ||
-    ghosts->GetNumberOfTuples() != cells[0] * cells[1] * cells[2])
-  {
-    return true;
-  }
   vtkIdType lo[3] = { cells[0], cells[1], cells[2] };
   vtkIdType hi[3] = { -1, -1, -1 };
-  const unsigned char* flag = ghosts->GetPointer(0);
   for (vtkIdType k = 0; k < cells[2]; ++k)
   {
     for (vtkIdType j = 0; j < cells[1]; ++j)
     {
-      for (vtkIdType i = 0; i < cells[0]; ++i, ++flag)
+      for (vtkIdType i = 0; i < cells[0]; ++i)
       {
-        if (!(*flag & vtkDataSetAttributes::DUPLICATECELL))
+        if (!duplicate(i, j, k))
         {
           const vtkIdType at[3] = { i, j, k };
           for (int d = 0; d < 3; ++d)
@@ -193,10 +176,47 @@ bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
   }
   for (int d = 0; d < 3; ++d)
   {
-    piece[2 * d] = dataExtent[2 * d] + static_cast<int>(lo[d]);
-    piece[2 * d + 1] = dataExtent[2 * d] + static_cast<int>(hi[d]) + 1;
+    box[2 * d] = dataExtent[2 * d] + static_cast<int>(lo[d]);
+    box[2 * d + 1] = dataExtent[2 * d] + static_cast<int>(hi[d]) + 1;
   }
   return true;
+}
+
+// The cells per axis of an image of extent `dataExtent`.
+void CellCounts(const int dataExtent[6], vtkIdType cells[3])
+{
+  for (int i = 0; i < 3; ++i)
+  {
+    cells[i] = static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i];
+  }
+}
+
+// The point extent of the cells of `input` (extent `dataExtent`) that its
+// cell ghost array does not mark as duplicates, into `piece` (the whole
+// `dataExtent` without such an array); false when every cell is a ghost.
+// For an input that arrives split otherwise than the filter asked (an
+// upstream filter that splits the volume its own way, as Resample To
+// Image does): the pieces' own cells then still cover the volume once,
+// where cropping to the piece asked for left a slab between two pieces
+// that neither contoured.
+bool OwnCells(vtkImageData* input, const int dataExtent[6], int piece[6])
+{
+  std::copy(dataExtent, dataExtent + 6, piece);
+  vtkUnsignedCharArray* ghosts = input->GetCellGhostArray();
+  vtkIdType cells[3];
+  CellCounts(dataExtent, cells);
+  if (!ghosts || cells[0] < 1 || cells[1] < 1 || cells[2] < 1 ||
+    ghosts->GetNumberOfTuples() != cells[0] * cells[1] * cells[2])
+  {
+    return true;
+  }
+  const unsigned char* flag = ghosts->GetPointer(0);
+  return OwnBox(
+    dataExtent, cells,
+    [&](vtkIdType i, vtkIdType j, vtkIdType k) {
+      return (flag[i + cells[0] * (j + cells[1] * k)] & vtkDataSetAttributes::DUPLICATECELL) != 0;
+    },
+    piece);
 }
 
 // The point extent of the cells of `input` (extent `dataExtent`) none of
@@ -215,56 +235,31 @@ bool OwnCellsByPoints(vtkImageData* input, const int dataExtent[6], int box[6])
     return false;
   }
   vtkIdType cells[3];
-  for (int i = 0; i < 3; ++i)
-  {
-    cells[i] = static_cast<vtkIdType>(dataExtent[2 * i + 1]) - dataExtent[2 * i];
-  }
+  CellCounts(dataExtent, cells);
   if (cells[0] < 1 || cells[1] < 1 || cells[2] < 1 ||
     ghosts->GetNumberOfTuples() != (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1))
   {
     return false;
   }
   const unsigned char* flag = ghosts->GetPointer(0);
+  const vtkIdType points = ghosts->GetNumberOfTuples();
+  if (std::none_of(flag, flag + points,
+        [](unsigned char f) { return (f & vtkDataSetAttributes::DUPLICATEPOINT) != 0; }))
+  {
+    return false;
+  }
   auto duplicate = [&](vtkIdType i, vtkIdType j, vtkIdType k) {
     return (flag[i + (cells[0] + 1) * (j + (cells[1] + 1) * k)] &
              vtkDataSetAttributes::DUPLICATEPOINT) != 0;
   };
-  vtkIdType lo[3] = { cells[0], cells[1], cells[2] };
-  vtkIdType hi[3] = { -1, -1, -1 };
-  bool any = false;
-  for (vtkIdType k = 0; k < cells[2]; ++k)
-  {
-    for (vtkIdType j = 0; j < cells[1]; ++j)
-    {
-      for (vtkIdType i = 0; i < cells[0]; ++i)
-      {
-        const bool dup = duplicate(i, j, k) || duplicate(i + 1, j, k) ||
-          duplicate(i, j + 1, k) || duplicate(i + 1, j + 1, k) || duplicate(i, j, k + 1) ||
-          duplicate(i + 1, j, k + 1) || duplicate(i, j + 1, k + 1) ||
-          duplicate(i + 1, j + 1, k + 1);
-        any = any || dup;
-        if (!dup)
-        {
-          const vtkIdType at[3] = { i, j, k };
-          for (int d = 0; d < 3; ++d)
-          {
-            lo[d] = std::min(lo[d], at[d]);
-            hi[d] = std::max(hi[d], at[d]);
-          }
-        }
-      }
-    }
-  }
-  if (!any || hi[0] < 0)
-  {
-    return false;
-  }
-  for (int d = 0; d < 3; ++d)
-  {
-    box[2 * d] = dataExtent[2 * d] + static_cast<int>(lo[d]);
-    box[2 * d + 1] = dataExtent[2 * d] + static_cast<int>(hi[d]) + 1;
-  }
-  return true;
+  return OwnBox(
+    dataExtent, cells,
+    [&](vtkIdType i, vtkIdType j, vtkIdType k) {
+      return duplicate(i, j, k) || duplicate(i + 1, j, k) || duplicate(i, j + 1, k) ||
+        duplicate(i + 1, j + 1, k) || duplicate(i, j, k + 1) || duplicate(i + 1, j, k + 1) ||
+        duplicate(i, j + 1, k + 1) || duplicate(i + 1, j + 1, k + 1);
+    },
+    box);
 }
 
 // Whether the input's cell ghost array marks any cell as a duplicate of
