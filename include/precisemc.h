@@ -447,7 +447,10 @@ typedef struct pmc_stats {
      */
     uint64_t cells;
     /**
-     * Triangles produced by Marching Cubes, before refinement.
+     * Triangles produced by Marching Cubes, before refinement, counted
+     * before the flat triangles that cancel in pairs across a plane of
+     * samples equal to the isovalue are dropped (the output can hold
+     * fewer).
      */
     uint64_t mc_triangles;
     /**

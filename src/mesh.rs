@@ -10,7 +10,12 @@
 pub struct Stats {
     /// Cells in the volume.
     pub cells: u64,
-    /// Triangles produced by Marching Cubes, before refinement.
+    /// Triangles produced by Marching Cubes, before refinement: counted
+    /// cell by cell, before the flat triangles that cancel in pairs across
+    /// a grid plane of samples equal to the isovalue are dropped, so the
+    /// output can hold fewer (a 2x2x3 volume whose middle plane of samples
+    /// equals the isovalue, the others below it: 4 Marching Cubes
+    /// triangles, an empty output).
     pub mc_triangles: u64,
     /// Triangles in the output.
     pub output_triangles: u64,

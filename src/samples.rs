@@ -79,7 +79,7 @@ fn segment_distance2(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
 /// A thin tube in an `n^3` volume, values 0..255, isovalue 130.5 (the
 /// paper's "tube" threshold): a Gaussian profile of width 0.9 cells around
 /// a bent curve (a quarter circle rising along z), so the tube is about 1.5
-/// cells across and runs obliquely through the lattice. `n >= 4`.
+/// cells across and runs obliquely through the lattice. `n` below 4 is taken as 4.
 pub fn tube(n: u64) -> SampleVolume {
     let n = n.max(4);
     let s = (n - 1) as f64;
@@ -115,7 +115,7 @@ pub fn tube(n: u64) -> SampleVolume {
 /// atoms (a short helix, 1.6 cells apart, width 1.1 cells) plus a few side
 /// atoms, values up to about 130, isovalue 50.5 (the paper's SOD
 /// threshold). Neighbouring atoms join through thin necks, where the
-/// trilinear topology and refinement change the surface most. `n >= 6`.
+/// trilinear topology and refinement change the surface most. `n` below 6 is taken as 6.
 pub fn atoms(n: u64) -> SampleVolume {
     let n = n.max(6);
     let s = (n - 1) as f64;
@@ -165,7 +165,7 @@ pub fn atoms(n: u64) -> SampleVolume {
 
 /// The Marschner–Lobb test signal (f_M = 6, alpha = 0.25) over
 /// `[-1, 1]^3` sampled on `n^3` points, isovalue 0.5 (the usual test size
-/// is `n = 41`). Values lie in `[0, 1]`. `n >= 2`.
+/// is `n = 41`). Values lie in `[0, 1]`. `n` below 2 is taken as 2.
 pub fn marschner_lobb(n: u64) -> SampleVolume {
     let n = n.max(2);
     let h = 2.0 / (n - 1) as f64;
@@ -203,7 +203,7 @@ fn smooth_value(n: u64, x: f64, y: f64, z: f64) -> f64 {
 }
 
 /// A smooth `f32` field on `n^3` samples, values in `[0, 1]`, isovalue 0.5:
-/// the throughput benchmark's input (a wavy sphere). `n >= 2`.
+/// the throughput benchmark's input (a wavy sphere). `n` below 2 is taken as 2.
 pub fn smooth(n: u64) -> SampleVolume {
     let n = n.max(2);
     SampleVolume {
@@ -214,7 +214,7 @@ pub fn smooth(n: u64) -> SampleVolume {
     }
 }
 
-/// [`smooth`] quantised to `u8` (0..255), isovalue 127.5. `n >= 2`.
+/// [`smooth`] quantised to `u8` (0..255), isovalue 127.5. `n` below 2 is taken as 2.
 pub fn smooth_u8(n: u64) -> SampleVolume<u8> {
     let n = n.max(2);
     SampleVolume {

@@ -535,7 +535,9 @@ public:
    * Statistics of the last execution, summed over the contour values
    * (maximised for GetMaxLevelReached(), averaged over all output
    * triangles for GetMeanLevel()).
-   * - NumberOfMCTriangles: triangles produced by Marching Cubes.
+   * - NumberOfMCTriangles: triangles produced by Marching Cubes, counted
+   *   before the flat triangles that cancel in pairs across a plane of
+   *   samples equal to the isovalue are dropped (the output can hold fewer).
    * - NumberOfRefinedTriangles: triangles in the output.
    * - NumberOfAmbiguousCells: cells whose topology was decided by the
    *   trilinear test (0 with Topology Classic).

@@ -94,7 +94,10 @@ pub struct pmc_stats {
     pub struct_size: u64,
     /// Cells in the volume, `(dims[0]-1)(dims[1]-1)(dims[2]-1)`.
     pub cells: u64,
-    /// Triangles produced by Marching Cubes, before refinement.
+    /// Triangles produced by Marching Cubes, before refinement, counted
+    /// before the flat triangles that cancel in pairs across a plane of
+    /// samples equal to the isovalue are dropped (the output can hold
+    /// fewer).
     pub mc_triangles: u64,
     /// Triangles in the output (= `pmc_mesh_triangle_count` until
     /// `pmc_mesh_take_triangles` takes them).

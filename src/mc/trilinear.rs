@@ -644,11 +644,16 @@ fn disk(f: &[f64; 8], l: &[u8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut
     }
     let c = 12 + extra.len() as u8;
     let g = unit_scaled(f);
-    extra.push(if pinch {
+    let centre = if pinch {
         fan_centre(&g, l)
     } else {
         interior_point(&g, l)
-    });
+    };
+    // Inside the cell, where it is computed to lie but for rounding: with
+    // values of wildly different magnitudes (1e299 beside 1e-301) the
+    // projection or its fallback root came out a rounding beyond a face
+    // (z = -5.6e-17), a point outside the volume when that face bounds it.
+    extra.push(centre.map(|x| x.clamp(0.0, 1.0)));
     for k in 0..n {
         out.push([c, l[k], l[(k + 1) % n]]);
     }
@@ -1015,6 +1020,43 @@ mod tests {
             }
         }
         assert!(fans > 200, "{fans} fans with an interior vertex");
+    }
+
+    #[test]
+    fn interior_points_lie_in_the_cell() {
+        // Cells of a hostile review: values around 1e300, 1e-300 and 1
+        // mixed (some 20 in 300 000 such cells had their interior point a
+        // rounding outside), led by the one it reported.
+        let mut cells = vec![[
+            -2.5133482400991705e-301,
+            0.4482252024986835,
+            1.891773629186082e-301,
+            -0.014583868265118038,
+            4.1282075394702866e299,
+            -1.0920068528904026e-301,
+            -0.11231421198135227,
+            0.8809142329033226,
+        ]];
+        let mut rng = crate::test_rng::XorShift(0x1e300);
+        for _ in 0..300_000 {
+            cells.push(std::array::from_fn(|_| match rng.below(4) {
+                0 => (rng.unit() - 0.5) * 1e300,
+                1 => (rng.unit() - 0.5) * 1e-300,
+                _ => rng.unit() * 2.0 - 1.0,
+            }));
+        }
+        let mut outside = 0;
+        for f in &cells {
+            for pinch in [false, true] {
+                let (mut tris, mut extra) = (Vec::new(), Vec::new());
+                triangles(f, pinch, &mut tris, &mut extra);
+                outside += extra
+                    .iter()
+                    .filter(|p| !p.iter().all(|x| (0.0..=1.0).contains(x)))
+                    .count();
+            }
+        }
+        assert_eq!(outside, 0);
     }
 
     #[test]
