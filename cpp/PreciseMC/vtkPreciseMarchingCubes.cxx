@@ -16,9 +16,11 @@
 
 #include "vtkCellArray.h"
 #include "vtkCellData.h"
+#include "vtkCompositeDataSet.h"
 #include "vtkDataArray.h"
 #include "vtkDataSetAttributes.h"
 #include "vtkDoubleArray.h"
+#include "vtkExecutive.h"
 #include "vtkExtentTranslator.h"
 #include "vtkFloatArray.h"
 #include "vtkIdList.h"
@@ -260,6 +262,19 @@ bool OwnCellsByPoints(vtkImageData* input, const int dataExtent[6], int box[6])
         duplicate(i, j + 1, k + 1) || duplicate(i + 1, j + 1, k + 1);
     },
     box);
+}
+
+// Whether a request for the update extent is the one a composite input's
+// pipeline (vtkCompositeDataPipeline) makes of a block, run as an input of
+// its own: the algorithm alone is called, after the composite input was
+// asked for all the blocks (the pipeline's own update passes call the
+// algorithm before forwarding the request upstream). The input's
+// information is then the composite input's: what is set there stays for
+// the next update.
+bool IsBlockRequest(vtkInformation* request)
+{
+  return request && request->Has(vtkExecutive::ALGORITHM_AFTER_FORWARD()) &&
+    !request->Has(vtkExecutive::ALGORITHM_BEFORE_FORWARD());
 }
 
 // Whether the input's cell ghost array marks any cell as a duplicate of
@@ -600,6 +615,7 @@ vtkPreciseMarchingCubes::vtkPreciseMarchingCubes()
   }
   this->ContourPiece = 0;
   this->ContourPieces = 1;
+  this->CompositePieces = 1;
   this->ContourSplitMode = vtkExtentTranslator::BLOCK_MODE;
   this->WholeInputShare = WHOLE_INPUT_AS_ASKED;
 
@@ -997,6 +1013,14 @@ int vtkPreciseMarchingCubes::Contour(
         (input->GetCellGhostArray() != nullptr ||
           !(asAsked(dataExtent) ||
             (OwnCellsByPoints(input, dataExtent, byPoints) && asAsked(byPoints))));
+    if (global && wholeInput && ownSplit && this->CompositePieces > 1)
+    {
+      vtkWarningMacro(<< "A block of a composite input asked for in " << this->CompositePieces
+                      << " pieces: the B-Spline Interpolating prefilter reads this block's piece "
+                         "and its ghost layer only, not the whole volume, so its surface differs "
+                         "from a serial run's throughout (contour the image itself, or one "
+                         "piece)");
+    }
     int asked[6]; // the piece asked for, before OwnCells() takes the input's own cells
     std::copy(piece, piece + 6, asked);
     if (ownSplit && !OwnCells(input, dataExtent, piece))
@@ -2056,6 +2080,38 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
   const int ghostSamples =
     ContourGhostSamples(this->ReconstructionFilter, this->Topology, this->Epsilon,
       this->MaxLevel, this->ComputeNormals != 0 || this->ComputeGradients != 0);
+  // A composite input (Group Datasets, .vtm) is asked once for all its
+  // blocks, then each block is run as an input of its own, the only piece
+  // of a whole volume (vtkCompositeDataPipeline): the ghost layer a piece
+  // needs is asked for here, and each block's run leaves the request alone
+  // (the composite input's information is where it would be set). A block
+  // with a ghost layer marks it in its ghost arrays (RequestData() contours
+  // its own cells). B-Spline Interpolating would need the whole volume,
+  // which a composite request cannot name: a ghost layer narrows the
+  // difference, RequestData() warns of it.
+  if (vtkCompositeDataSet::SafeDownCast(inInfo->Get(vtkDataObject::DATA_OBJECT())))
+  {
+    const int numPieces = outInfo &&
+        outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+      ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+      : 1;
+    this->CompositePieces = std::max(1, numPieces);
+    // The pipeline leaves the extent of the last block it ran on the
+    // composite input (it initialises a block's request to the block's
+    // whole extent), and the producer of the composite would pass it on as
+    // its own request: the next update cut the source's piece out of that
+    // extent again (half the surface lost when the ghost layer asked for
+    // changed). A composite input is asked for by piece only.
+    inInfo->Remove(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT());
+    inInfo->Set(
+      vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), numPieces > 1 ? ghostSamples : 0);
+    return result;
+  }
+  const bool block = IsBlockRequest(request);
+  if (!block)
+  {
+    this->CompositePieces = 1;
+  }
   if (outInfo && inInfo->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()))
   {
     int whole[6];
@@ -2102,9 +2158,12 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
       // cells of the volume (with WholeInputShare's WHOLE_INPUT_ALL, twice).
       // vtkPolyDataAlgorithm asks for the exact extent, and the executive
       // would crop the volume delivered to the empty one asked for.
-      inInfo->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 0);
-      inInfo->Set(
-        vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
+      if (!block)
+      {
+        inInfo->Set(vtkStreamingDemandDrivenPipeline::EXACT_EXTENT(), 0);
+        inInfo->Set(
+          vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
+      }
       return result;
     }
     if (numPieces > 1)
@@ -2122,7 +2181,11 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     {
       std::copy(update, update + 6, this->ContourExtent);
     }
-    if (this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING)
+    if (block)
+    {
+      // (The composite input's request, made above, stands.)
+    }
+    else if (this->ReconstructionFilter == RECONSTRUCTION_BSPLINE_INTERPOLATING)
     {
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), whole, 6);
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
@@ -2143,7 +2206,10 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
       inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), grown, 6);
     }
   }
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
+  if (!block)
+  {
+    inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), ghostLevels);
+  }
   return result;
 }
 

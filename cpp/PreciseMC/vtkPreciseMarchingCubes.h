@@ -91,7 +91,11 @@
  * and the filter warns (not for flat triangles on a cut where samples
  * equal the isovalue); so it does for an input that is the piece asked for
  * but without the ghost layer asked with it (a source that ignores ghost
- * levels). Cells the input's cell ghost array flags HIDDENCELL, or with a
+ * levels). A composite input (image blocks: a multiblock, Group Datasets)
+ * is asked for the same ghost layer, and each block is contoured on its
+ * own cells, those its ghost array does not mark as duplicates; only
+ * BSplineInterpolating cannot have the whole volume there, and warns that
+ * its surface differs. Cells the input's cell ghost array flags HIDDENCELL, or with a
  * corner its point ghost array flags HIDDENPOINT (AMR blanking), make no
  * triangles, as in vtkContourFilter on a vtkUniformGrid. InterpolateAttributes gives every point the same
  * values in every piece, and never interpolates the input's ghost flags.
@@ -657,6 +661,9 @@ protected:
   int ContourPiece;
   int ContourPieces;
   int ContourSplitMode;
+  // The number of pieces a composite input (its blocks run one by one, each
+  // as the only piece) was asked for; 1 for an image input.
+  int CompositePieces;
 
   // What a piece of a distributed run (ContourPieces > 1) does with an
   // input that is the whole volume with no cell marked as a duplicate: cut

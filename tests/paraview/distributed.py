@@ -36,8 +36,8 @@ from vtkmodules.util.numpy_support import vtk_to_numpy
 # point array, "aux"), "own-split" (OWN_SPLIT_SOURCE below: no ghost
 # levels, so only runs that need none, without normals) or "group" (the
 # Wavelet as the block of a multiblock, Group Datasets: contoured block by
-# block, with the ghost layer the shared Wavelet holds; no ghost level is
-# asked for, so only runs that need none) or "legacy" (the Wavelet saved as
+# block, each with the ghost layer the run asks the composite input for, or
+# that the shared Wavelet holds already) or "legacy" (the Wavelet saved as
 # a legacy .vtk file by the serial run: ParaView's legacy reader gives the
 # whole volume to the first rank and nothing to the others, so the first
 # rank must contour all of it, "one_rank").
@@ -63,6 +63,19 @@ CONFIGS = {
     # contoured twice (until the thirty-third session they were).
     "group-mc": dict(Epsilon=0.0, MaxLevel=0, ComputeNormals=0, input="group",
                      same_as="mc-no-normals"),
+    # Runs that need a ghost layer, asked of the composite input (until the
+    # fifty-second session it was not, and their surfaces next to the cuts
+    # differed), one after the other on the same Group Datasets: each asks
+    # for another layer (a cubic run after a trilinear one lost half its
+    # triangles when each block's run left its own request on the composite
+    # input, which the next update cut the Wavelet's piece from again).
+    "group-mc-normals": dict(Epsilon=0.0, MaxLevel=0, input="group", same_as="mc"),
+    "group-refined": dict(Epsilon=0.01, MaxLevel=5, Rule="A1", input="group",
+                          same_as="refined"),
+    "group-cubic-catmull-rom": dict(Epsilon=0.02, MaxLevel=3, ReconstructionFilter="Catmull-Rom",
+                                    input="group", same_as="cubic-catmull-rom"),
+    "group-refined-again": dict(Epsilon=0.01, MaxLevel=5, Rule="A1", input="group",
+                                same_as="refined"),
     "legacy-mc": dict(Epsilon=0.0, MaxLevel=0, input="legacy", one_rank=True),
     "legacy-refined": dict(Epsilon=0.01, MaxLevel=5, input="legacy", one_rank=True),
     "refined-ghosts": dict(Epsilon=0.01, MaxLevel=5, ghosts=True),
