@@ -194,6 +194,161 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
   }
 }
 
+// The most slice files a header may name (a volume of so many slices in
+// files of their own is none a user keeps; a pattern naming 10^9 of them
+// made VTK's NRRD reader build as many names).
+const long long MaxSliceFiles = 1 << 16;
+
+// Why `pattern` cannot name slice files the way VTK's readers expand it
+// (snprintf with the slice number, an int, as its one argument), "" when
+// it can: exactly one integer conversion (%d, %03d, %x, ...), with %% for a
+// literal percent sign. Any other conversion (%s, %n, two of them, a
+// length modifier) made the reader pass garbage to snprintf: a crash.
+std::string SlicePatternProblem(const std::string& pattern)
+{
+  int conversions = 0;
+  for (size_t i = 0; i < pattern.size(); ++i)
+  {
+    if (pattern[i] != '%')
+    {
+      continue;
+    }
+    size_t j = i + 1;
+    if (j < pattern.size() && pattern[j] == '%')
+    {
+      i = j;
+      continue;
+    }
+    while (j < pattern.size() && std::strchr("-+ #0", pattern[j]))
+    {
+      ++j;
+    }
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])))
+    {
+      ++j;
+    }
+    if (j < pattern.size() && pattern[j] == '.')
+    {
+      ++j;
+      while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])))
+      {
+        ++j;
+      }
+    }
+    if (j >= pattern.size() || !std::strchr("diouxX", pattern[j]))
+    {
+      return "holds '" + pattern.substr(i, std::min(pattern.size(), j + 1) - i) +
+        "', not an integer conversion (%d, %03d, ...)";
+    }
+    ++conversions;
+    i = j;
+  }
+  if (conversions != 1)
+  {
+    return "holds " + std::to_string(conversions) +
+      " integer conversions, where the slice number fills exactly one";
+  }
+  return std::string();
+}
+
+// Throws unless `file`, a data file that the header `path` names (relative
+// to the header's directory unless absolute), is a regular file: a FIFO
+// made VTK's readers wait for a writer, a device (/dev/urandom) was read as
+// samples.
+void CheckNamedDataFile(const std::string& path, const std::string& what, const std::string& file)
+{
+  const size_t slash = path.find_last_of('/');
+  const std::string full = file.empty() || file[0] == '/' || slash == std::string::npos
+    ? file
+    : path.substr(0, slash + 1) + file;
+  struct stat st;
+  if (stat(full.c_str(), &st) != 0)
+  {
+    Unreadable(path, what + " names '" + file + "': " + std::strerror(errno));
+  }
+  if (!S_ISREG(st.st_mode))
+  {
+    Unreadable(path, what + " names '" + file + "', which is not a regular file (VTK's reader " +
+        (S_ISFIFO(st.st_mode) ? "would wait for a writer" : "would read it as samples") + ")");
+  }
+}
+
+// The data files a detached NRRD header names, as VTK 9.1's reader takes
+// them ("data file: NAME", "data file: PATTERN MIN MAX STEP [SUBDIM]", or
+// "data file: LIST" and a name a line): each must be a regular file, and a
+// pattern an integer one (SlicePatternProblem()) naming one file a slice.
+// A step of 0 or less made the reader name files without end (memory grew
+// by 250 MB/s), and a range of 10^9 built as many names.
+void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
+  const std::vector<std::string>& listed, const std::vector<long long>& sizes)
+{
+  if (dataFile.empty())
+  {
+    return;
+  }
+  std::vector<std::string> words;
+  {
+    std::istringstream split(dataFile);
+    std::string word;
+    while (split >> word)
+    {
+      words.push_back(word);
+    }
+  }
+  const std::string what = "its data file field (" + dataFile + ")";
+  if (words[0] == "LIST")
+  {
+    if (listed.empty())
+    {
+      Unreadable(path, what + " lists no file on the lines after it");
+    }
+    for (const std::string& file : listed)
+    {
+      CheckNamedDataFile(path, "its data file list", file);
+    }
+    return;
+  }
+  if (words.size() < 4)
+  {
+    CheckNamedDataFile(path, "its data file field", dataFile);
+    return;
+  }
+  const std::string problem = SlicePatternProblem(words[0]);
+  if (!problem.empty())
+  {
+    Unreadable(path, "the pattern of " + what + " " + problem);
+  }
+  // The reader's own reading of the numbers (atoi).
+  const long long first = std::atoi(words[1].c_str());
+  const long long last = std::atoi(words[2].c_str());
+  const long long step = std::atoi(words[3].c_str());
+  if (step <= 0)
+  {
+    Unreadable(path, what + " steps by " + std::to_string(step) +
+        ": VTK's NRRD reader would name files without end");
+  }
+  const long long files = last < first ? 0 : (last - first) / step + 1;
+  const long long slices = sizes.empty() ? 0 : sizes.back();
+  if (files > MaxSliceFiles)
+  {
+    Unreadable(path, what + " names " + std::to_string(files) + " files, more than the " +
+        std::to_string(MaxSliceFiles) + " slice files read");
+  }
+  if (files != slices)
+  {
+    Unreadable(path, what + " names " + std::to_string(files) + " file" +
+        (files == 1 ? "" : "s") + " (" + std::to_string(first) + " to " + std::to_string(last) +
+        " by " + std::to_string(step) + ") for " + std::to_string(slices) +
+        " slices: VTK's NRRD reader reads one file a slice");
+  }
+  char name[4096];
+  for (long long i = first; i <= last; i += step)
+  {
+    std::snprintf(name, sizeof(name), words[0].c_str(), static_cast<int>(i));
+    CheckNamedDataFile(path, what, name);
+  }
+}
+
 // What VTK 9.1's NRRD reader would misread, crash or hang on, refused
 // before it sees the file: ASCII data after an attached header (read as
 // garbage without an error), an attached header that no blank line ends
@@ -238,8 +393,13 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     Unreadable(path, "it is not a NRRD file (it does not begin with the magic 'NRRD000')");
   }
   in.seekg(0);
+  bool unterminated = false;     // the last line read had no newline
+  std::string dataFile;          // the "data file" value, "" if absent
+  bool listing = false;          // reading the files after "data file: LIST"
+  std::vector<std::string> listed;
   while (read < headerLimit && std::getline(in, line))
   {
+    unterminated = in.eof();
     const size_t lineStart = read;
     read += line.size() + 1;
     if (!line.empty() && line.back() == '\r')
@@ -250,6 +410,19 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     {
       ended = true; // the end of the header
       break;
+    }
+    if (listing)
+    {
+      // VTK's reader takes every line after LIST for a file, trimmed.
+      std::string file = line;
+      file.erase(0, file.find_first_not_of(" \t"));
+      file.erase(file.find_last_not_of(" \t") + 1);
+      if (file.empty())
+      {
+        break;
+      }
+      listed.push_back(file);
+      continue;
     }
     // A NUL (or another control byte) in the header: VTK's reader then
     // never returned, or crashed. A header is text; tabs are allowed.
@@ -281,6 +454,10 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     if (lower.compare(0, 10, "data file:") == 0 || lower.compare(0, 9, "datafile:") == 0)
     {
       detached = true;
+      dataFile = line.substr(line.find(':') + 1);
+      dataFile.erase(0, dataFile.find_first_not_of(" \t"));
+      dataFile.erase(dataFile.find_last_not_of(" \t") + 1);
+      listing = dataFile.compare(0, 4, "LIST") == 0;
     }
     if (lower.compare(0, 10, "dimension:") == 0)
     {
@@ -324,6 +501,11 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   if (!ended && !detached)
   {
     Unreadable(path, "no blank line ends the header before the data (VTK's NRRD reader would "
+                     "never stop reading it)");
+  }
+  if (!ended && unterminated)
+  {
+    Unreadable(path, "the header's last line ends without a newline (VTK's NRRD reader would "
                      "never stop reading it)");
   }
   if (controlAt != std::string::npos)
@@ -374,6 +556,7 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, misread + "a spatial axis (space direction " + firstDirection + ")" + instead);
   }
+  CheckNrrdDataFiles(path, dataFile, listed, sizes);
   header.sizes = sizes;
   return header;
 }
@@ -1551,6 +1734,19 @@ void CheckMetaImageHeaderLines(const std::string& path)
           (longKey ? std::string() : " ('" + key + "')") + ", more than the " +
           std::to_string(limit) + " VTK's MetaImage reader holds (it would abort)");
     }
+    if (key == "NDims")
+    {
+      // MetaIO reads NDims numbers for each vector field: a negative or
+      // huge count made VTK's reader loop without end.
+      char* rest = nullptr;
+      errno = 0;
+      const long n = std::strtol(value.c_str(), &rest, 10);
+      if (value.empty() || *rest != '\0' || errno != 0 || n < 1 || n > 10)
+      {
+        Unreadable(path, "line " + std::to_string(number) + " of its header gives NDims = " +
+            value + ", not a number of dimensions from 1 to 10");
+      }
+    }
     if (key == "ElementDataFile")
     {
       break; // the end of the header
@@ -1662,7 +1858,25 @@ void CheckMetaImageDataFiles(const std::string& path)
       layout.compressed);
     return;
   }
-  if (dims.empty() || dims.back() < 1 || dataFile.find('%') == std::string::npos)
+  if (dataFile.find('%') == std::string::npos)
+  {
+    if (!dataFile.empty() && dataFile != "LOCAL")
+    {
+      CheckNamedDataFile(path, "its ElementDataFile", dataFile);
+    }
+    return;
+  }
+  {
+    std::istringstream split(dataFile);
+    std::string pattern;
+    split >> pattern;
+    const std::string problem = SlicePatternProblem(pattern);
+    if (!problem.empty())
+    {
+      Unreadable(path, "its ElementDataFile pattern (" + dataFile + ") " + problem);
+    }
+  }
+  if (dims.empty() || dims.back() < 1)
   {
     return;
   }
@@ -1725,6 +1939,14 @@ void CheckMetaImageDataFiles(const std::string& path)
         (files == 1 ? "" : "s") + " (" + std::to_string(first) + " to " + std::to_string(last) +
         " by " + std::to_string(step) + ") for " + std::to_string(slices) +
         " slices: VTK's MetaImage reader would leave the others zeros");
+  }
+  // The files of the slices read (the first ones; MetaIO names them with
+  // snprintf and the slice number, as here).
+  char name[4096];
+  for (long long k = 0; k < std::min(slices, MaxSliceFiles); ++k)
+  {
+    std::snprintf(name, sizeof(name), words[0].c_str(), static_cast<int>(first + k * step));
+    CheckNamedDataFile(path, pattern, name);
   }
 }
 
@@ -1869,16 +2091,22 @@ void CheckLegacySize(const std::string& path)
   }
 }
 
-// A NIfTI header whose datatype code is none that VTK's reader reads:
-// VTK 9.1's reader went on with an unknown code (5, 4096, 12345) and
-// crashed reading the data, or sized it from garbage. The codes are
-// NIfTI-1's that the reader maps to a VTK type (the types of a VTK array:
-// not binary, float128 or complex256). NIfTI-1 (348-byte header, the
-// code at byte 70) and NIfTI-2 (540, at byte 12), either byte order, read
-// through zlib so .nii.gz too; any other header is left to the reader.
-void CheckNiftiDatatype(const std::string& path)
+// What VTK 9.1's NIfTI reader crashes on or misreads in a NIfTI header,
+// refused before it runs. NIfTI-1 (348-byte header) and NIfTI-2 (540),
+// either byte order, read through zlib so .nii.gz too; any other header is
+// left to the reader.
+// - A datatype code that is none that VTK's reader reads: it went on with
+//   an unknown code (5, 4096, 12345) and crashed reading the data, or sized
+//   it from garbage. The codes are NIfTI-1's that the reader maps to a VTK
+//   type (the types of a VTK array: not binary, float128 or complex256).
+// - A dimension count outside 1..7 or a used dimension below 1: 0 vector
+//   components made the reader divide by zero (SIGFPE).
+// - In a single-file .nii, data that starts inside the header (vox_offset
+//   below 352, 544 for NIfTI-2): the header's own bytes were read as the
+//   first samples.
+void CheckNiftiHeader(const std::string& path)
 {
-  unsigned char head[72] = {};
+  unsigned char head[544] = {};
   gzFile gz = gzopen(path.c_str(), "rb");
   if (!gz)
   {
@@ -1886,49 +2114,128 @@ void CheckNiftiDatatype(const std::string& path)
   }
   const int got = gzread(gz, head, sizeof(head));
   gzclose(gz);
-  if (got < static_cast<int>(sizeof(head)))
-  {
-    return; // the reader speaks of a short header
-  }
   const auto number = [&head](int at, int bytes, bool swap) {
-    unsigned long v = 0;
+    unsigned long long v = 0;
     for (int b = 0; b < bytes; ++b)
     {
-      v |= static_cast<unsigned long>(head[at + (swap ? bytes - 1 - b : b)]) << (8 * b);
+      v |= static_cast<unsigned long long>(head[at + (swap ? bytes - 1 - b : b)]) << (8 * b);
     }
     return v;
   };
-  int datatypeAt = -1;
+  int version = 0;
   bool swap = false;
   for (bool s : { false, true })
   {
-    const unsigned long size = number(0, 4, s);
+    const unsigned long long size = number(0, 4, s);
     if (size == 348 || size == 540)
     {
-      datatypeAt = size == 348 ? 70 : 12;
+      version = size == 348 ? 1 : 2;
       swap = s;
     }
   }
-  if (datatypeAt < 0)
+  if (version == 0 || got < (version == 1 ? 348 : 540))
   {
-    return;
+    return; // the reader speaks of a short or foreign header
   }
-  const int code = static_cast<int>(number(datatypeAt, 2, swap));
+  const int code = static_cast<int>(number(version == 1 ? 70 : 12, 2, swap));
   static const std::pair<int, const char*> readable[] = { { 2, "uint8" }, { 4, "int16" },
     { 8, "int32" }, { 16, "float32" }, { 32, "complex64" }, { 64, "float64" }, { 128, "rgb24" },
     { 256, "int8" }, { 512, "uint16" }, { 768, "uint32" }, { 1024, "int64" },
     { 1280, "uint64" }, { 1792, "complex128" }, { 2304, "rgba32" } };
   std::string known;
+  bool readableCode = false;
   for (const auto& r : readable)
   {
-    if (r.first == code)
-    {
-      return;
-    }
+    readableCode = readableCode || r.first == code;
     known += (known.empty() ? "" : ", ") + std::to_string(r.first) + " " + r.second;
   }
-  Unreadable(path, "its header's datatype code " + std::to_string(code) +
-      " is none that VTK's NIfTI reader reads (" + known + ")");
+  if (!readableCode)
+  {
+    Unreadable(path, "its header's datatype code " + std::to_string(code) +
+        " is none that VTK's NIfTI reader reads (" + known + ")");
+  }
+  // dim[0..7]: int16 from byte 40 (NIfTI-1), int64 from byte 16 (NIfTI-2).
+  const auto dim = [&](int i) {
+    return version == 1 ? static_cast<long long>(static_cast<int16_t>(number(40 + 2 * i, 2, swap)))
+                        : static_cast<long long>(number(16 + 8 * i, 8, swap));
+  };
+  const long long count = dim(0);
+  if (count < 1 || count > 7)
+  {
+    Unreadable(path, "its header gives " + std::to_string(count) +
+        " dimensions (dim[0]), not 1 to 7");
+  }
+  static const char* const names[] = { "", "x", "y", "z", "time points", "vector components",
+    "dimension 6", "dimension 7" };
+  for (int i = 1; i <= count; ++i)
+  {
+    if (dim(i) < 1)
+    {
+      Unreadable(path, "its header gives " + std::to_string(dim(i)) + " " + names[i] +
+          " (dim[" + std::to_string(i) + "]): every dimension used holds at least 1");
+    }
+  }
+  // A single file ("n+1" or "n+2" magic) holds its data after the header
+  // and its 4 extension bytes.
+  const bool single = version == 1 ? std::memcmp(head + 344, "n+1", 4) == 0
+                                   : std::memcmp(head + 4, "n+2", 4) == 0;
+  if (single)
+  {
+    double offset;
+    if (version == 1)
+    {
+      const uint32_t bits = static_cast<uint32_t>(number(108, 4, swap));
+      float f;
+      std::memcpy(&f, &bits, sizeof(f));
+      offset = f;
+    }
+    else
+    {
+      offset = static_cast<double>(static_cast<long long>(number(168, 8, swap)));
+    }
+    const int least = version == 1 ? 352 : 544;
+    if (!(offset >= least))
+    {
+      char at[32];
+      std::snprintf(at, sizeof(at), "%g", offset);
+      Unreadable(path, std::string("its header puts the data at byte ") + at +
+          " (vox_offset), inside the header, which ends at byte " + std::to_string(least) +
+          " in a single .nii file");
+    }
+  }
+}
+
+// Throws when the DICOM directory `path` holds an entry that is neither a
+// regular file nor a directory: VTK's DICOM reader opens every entry, and
+// waited for a writer on a FIFO (or read a device without end).
+void CheckDirectoryEntries(const std::string& path)
+{
+  DIR* d = opendir(path.c_str());
+  if (!d)
+  {
+    return; // the reader speaks of it
+  }
+  std::string odd;
+  while (dirent* entry = readdir(d))
+  {
+    const std::string name = entry->d_name;
+    struct stat st;
+    if (name == "." || name == ".." || stat((path + "/" + name).c_str(), &st) != 0)
+    {
+      continue;
+    }
+    if (!S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+    {
+      odd = name;
+      break;
+    }
+  }
+  closedir(d);
+  if (!odd.empty())
+  {
+    Unreadable(path, "the directory holds '" + odd + "', which is not a regular file (a FIFO "
+        "or a device, which VTK's DICOM reader would wait on or read without end)");
+  }
 }
 
 // The reader for a file, after a cheap look at its header when the reader
@@ -2140,6 +2447,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
   NrrdHeader nrrd;
   if (IsDirectory(path))
   {
+    CheckDirectoryEntries(path);
     auto dicom = vtkSmartPointer<vtkSliceListingDICOMReader>::New();
     dicom->SetDirectoryName(path.c_str());
     reader = dicom;
@@ -2176,7 +2484,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
     }
     if (Extension(path) == ".nii" || Extension(path) == ".nii.gz")
     {
-      CheckNiftiDatatype(path);
+      CheckNiftiHeader(path);
     }
     if (Extension(path) == ".vti")
     {

@@ -2025,6 +2025,132 @@ def refuse_nrrd_headers(d, head, data, cases):
             raise Failure(f"{name}: {e}")
 
 
+def expect_refused_in_time(path, fragment, out):
+    """expect_error() for the input `path`, within 60 s (the cases hung)."""
+    start = time.monotonic()
+    try:
+        expect_error([path, "-o", out], fragment, outputs=[out], status=1)
+    except Failure as e:
+        raise Failure(f"{os.path.basename(path)}: {e}")
+    took = time.monotonic() - start
+    expect(took < 60, f"{os.path.basename(path)}: took {took:.0f} s")
+
+
+@check
+def slice_file_names_vtk_crashes_or_hangs_on_are_refused():
+    """A review under AddressSanitizer (fifty-second session): a slice file
+    pattern's printf conversion reached snprintf in VTK's readers ("%s":
+    SIGSEGV; "%n": abort), a NRRD pattern stepping by 0 named files without
+    end (memory grew by 250 MB/s) and one over 10^9 numbers built as many
+    names, a detached NRRD header whose last line has no newline never
+    finished reading, a MetaImage NDims of -1 or 2^31 - 1 looped, and a
+    FIFO named as a data file (or in a DICOM directory) waited for a
+    writer while a device was read as samples. Each refused with its
+    reason, in time; integer patterns and regular files still read."""
+    d = fresh_dir("slice-file-names")
+    out = os.path.join(d, "o.vtp")
+    data = bytes(range(256)) * 10
+    for k in range(1, 11):
+        with open(os.path.join(d, f"s{k:03d}.raw"), "wb") as f:
+            f.write(data[:256])
+    with open(os.path.join(d, "all.raw"), "wb") as f:
+        f.write(data)
+    os.mkfifo(os.path.join(d, "fifo.raw"))
+    for k in range(1, 11):
+        # q010.raw, the last slice, a FIFO; p%NNN.raw, names with a percent sign.
+        if k < 10:
+            shutil.copy(os.path.join(d, f"s{k:03d}.raw"), os.path.join(d, f"q{k:03d}.raw"))
+        shutil.copy(os.path.join(d, f"s{k:03d}.raw"), os.path.join(d, f"p%{k:03d}.raw"))
+    os.mkfifo(os.path.join(d, "q010.raw"))
+    mhd = ("ObjectType = Image\nNDims = 3\nDimSize = 16 16 10\nElementType = MET_UCHAR\n"
+           "ElementDataFile = %s\n")
+    nhdr = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 16 16 10\nencoding: raw\ndata file: %s"
+    cases = [
+        ("conv-s.mhd", mhd % "s%s.raw 1 10 1", "holds '%s', not an integer conversion"),
+        ("conv-n.mhd", mhd % "s%n.raw 1 10 1", "holds '%n', not an integer conversion"),
+        ("conv-long.mhd", mhd % "s%03ld.raw 1 10 1", "holds '%03l'"),
+        ("two.mhd", mhd % "s%d%d.raw 1 10 1", "holds 2 integer conversions"),
+        ("ndims-negative.mhd", mhd.replace("NDims = 3", "NDims = -1") % "all.raw",
+         "NDims = -1, not a number of dimensions"),
+        ("ndims-huge.mhd", mhd.replace("NDims = 3", "NDims = 2147483647") % "all.raw",
+         "NDims = 2147483647"),
+        ("fifo.mhd", mhd % "fifo.raw", "'fifo.raw', which is not a regular file"),
+        ("device.mhd", mhd % "/dev/zero", "'/dev/zero', which is not a regular file"),
+        ("fifo-slice.mhd", mhd % "q%03d.raw 1 10 1", "'q010.raw', which is not a regular file"),
+        ("missing-slice.mhd", mhd % "s%03d.raw 0 9 1", "names 's000.raw': no such file"),
+        ("conv-s.nhdr", nhdr % "s%s.raw 1 10 1\n\n", "holds '%s', not an integer conversion"),
+        ("step0.nhdr", nhdr % "s%03d.raw 1 10 0\n\n", "steps by 0"),
+        ("range.nhdr", nhdr % "s%03d.raw 1 1000000000 1\n\n", "names 1000000000 files"),
+        ("few.nhdr", nhdr % "s%03d.raw 1 9 1\n\n", "names 9 files (1 to 9 by 1) for 10 slices"),
+        ("unended.nhdr", nhdr % "all.raw", "last line ends without a newline"),
+        ("fifo.nhdr", nhdr % "fifo.raw\n", "'fifo.raw', which is not a regular file"),
+        ("device.nhdr", nhdr % "/dev/urandom\n", "'/dev/urandom', which is not a regular"),
+        ("fifo-list.nhdr", nhdr % "LIST\nall.raw\nfifo.raw\n", "'fifo.raw', which is not"),
+    ]
+    for name, text, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "w") as f:
+            f.write(text)
+        expect_refused_in_time(path, fragment, out)
+    dicom = os.path.join(d, "series")
+    os.mkdir(dicom)
+    os.mkfifo(os.path.join(dicom, "x.dcm"))
+    expect_refused_in_time(dicom, "holds 'x.dcm', which is not a regular file", out)
+    for name, text in (("good.mhd", mhd % "s%03d.raw 1 10 1"), ("good-one.mhd", mhd % "all.raw"),
+                       ("good.nhdr", nhdr % "s%03d.raw 1 10 1\n"),
+                       ("good-one.nhdr", nhdr % "all.raw\n"),
+                       ("percent.nhdr", nhdr % "p%%%03d.raw 1 10 1\n"),
+                       ("percent.mhd", mhd % "p%%%03d.raw 1 10 1")):
+        path = os.path.join(d, name)
+        with open(path, "w") as f:
+            f.write(text)
+        ok(path, "-q", "-v", "100", "-o", out)
+
+
+@check
+def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
+    """0 vector components (dim[5]) made VTK 9.1's NIfTI reader divide by
+    zero (SIGFPE), and a single-file .nii whose vox_offset lies inside the
+    header (below 352) had the header's bytes read as samples, exit status
+    0; a dimension count beyond 7 or a used dimension of 0 are refused
+    too. .nii and .nii.gz alike; the file they were made from still
+    reads."""
+    import gzip
+    d = fresh_dir("nifti-header")
+    out = os.path.join(d, "o.vtp")
+    good = os.path.join(d, "good.nii")
+    w = vtkNIFTIImageWriter()
+    w.SetFileName(good)
+    w.SetInputData(blob_image())
+    w.Write()
+    with open(good, "rb") as f:
+        data = bytearray(f.read())
+    expect(struct.unpack("<f", data[108:112])[0] >= 352, "vox_offset of the written file")
+
+    def patched(fmt, at, *values):
+        b = bytearray(data)
+        struct.pack_into(fmt, b, at, *values)
+        return bytes(b)
+
+    dims = list(struct.unpack("<8h", data[40:56]))
+    cases = [
+        ("components0", patched("<8h", 40, 5, *dims[1:4], 1, 0, 1, 1),
+         "0 vector components (dim[5])"),
+        ("time0", patched("<8h", 40, 4, *dims[1:4], 0, 1, 1, 1), "0 time points (dim[4])"),
+        ("x0", patched("<8h", 40, 3, 0, *dims[2:8]), "0 x (dim[1])"),
+        ("eight", patched("<8h", 40, 8, *dims[1:8]), "8 dimensions (dim[0])"),
+        ("offset0", patched("<f", 108, 0.0), "data at byte 0 (vox_offset)"),
+        ("offset348", patched("<f", 108, 348.0), "data at byte 348 (vox_offset)"),
+    ]
+    for label, content, fragment in cases:
+        for ext in ("nii", "nii.gz"):
+            path = os.path.join(d, f"{label}.{ext}")
+            with (gzip.open if ext == "nii.gz" else open)(path, "wb") as f:
+                f.write(content)
+            expect_refused_in_time(path, fragment, out)
+    ok(good, "-q", "-o", out)
+
+
 @check
 def nrrd_header_with_a_control_byte_is_refused():
     """A NUL byte in a NRRD header (at the end of a line, or at the start
