@@ -194,6 +194,19 @@ void CheckDeclaredSize(vtkAlgorithm* reader, const std::string& path)
   }
 }
 
+// The whitespace-separated words of `text`.
+std::vector<std::string> Words(const std::string& text)
+{
+  std::vector<std::string> words;
+  std::istringstream split(text);
+  std::string word;
+  while (split >> word)
+  {
+    words.push_back(word);
+  }
+  return words;
+}
+
 // The most slice files a header may name (a volume of so many slices in
 // files of their own is none a user keeps; a pattern naming 10^9 of them
 // made VTK's NRRD reader build as many names).
@@ -286,15 +299,7 @@ void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
   {
     return;
   }
-  std::vector<std::string> words;
-  {
-    std::istringstream split(dataFile);
-    std::string word;
-    while (split >> word)
-    {
-      words.push_back(word);
-    }
-  }
+  const std::vector<std::string> words = Words(dataFile);
   const std::string what = "its data file field (" + dataFile + ")";
   if (words[0] == "LIST")
   {
@@ -1866,28 +1871,15 @@ void CheckMetaImageDataFiles(const std::string& path)
     }
     return;
   }
+  const std::vector<std::string> words = Words(dataFile);
+  const std::string problem = SlicePatternProblem(words[0]);
+  if (!problem.empty())
   {
-    std::istringstream split(dataFile);
-    std::string pattern;
-    split >> pattern;
-    const std::string problem = SlicePatternProblem(pattern);
-    if (!problem.empty())
-    {
-      Unreadable(path, "its ElementDataFile pattern (" + dataFile + ") " + problem);
-    }
+    Unreadable(path, "its ElementDataFile pattern (" + dataFile + ") " + problem);
   }
   if (dims.empty() || dims.back() < 1)
   {
     return;
-  }
-  std::vector<std::string> words;
-  {
-    std::istringstream split(dataFile);
-    std::string word;
-    while (split >> word)
-    {
-      words.push_back(word);
-    }
   }
   const long long slices = dims.back();
   // MetaIO takes each number as (int)atof(word); beyond int it is undefined.

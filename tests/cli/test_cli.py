@@ -1590,6 +1590,17 @@ def nifti_scaling_is_applied():
            f"range [{lo}, {hi}] is not the scaled one")
 
 
+def written_nifti(d):
+    """The blob written by VTK's NIfTI writer to d/good.nii: its path and bytes."""
+    good = os.path.join(d, "good.nii")
+    w = vtkNIFTIImageWriter()
+    w.SetFileName(good)
+    w.SetInputData(blob_image())
+    w.Write()
+    with open(good, "rb") as f:
+        return good, f.read()
+
+
 @check
 def nifti_datatype_vtk_cannot_read_is_refused():
     """A NIfTI header whose datatype code is none of the NIfTI-1 types VTK
@@ -1600,13 +1611,7 @@ def nifti_datatype_vtk_cannot_read_is_refused():
     import gzip
     d = fresh_dir("nifti-datatype")
     out = os.path.join(d, "o.vtp")
-    good = os.path.join(d, "good.nii")
-    w = vtkNIFTIImageWriter()
-    w.SetFileName(good)
-    w.SetInputData(blob_image())
-    w.Write()
-    with open(good, "rb") as f:
-        data = f.read()
+    good, data = written_nifti(d)
     expect(struct.unpack("<h", data[70:72])[0] == 16, "float32 datatype code at byte 70")
     for code in (5, 4096, 12345, 4097, 1):
         patched = data[:70] + struct.pack("<h", code) + data[72:]
@@ -2118,13 +2123,7 @@ def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
     import gzip
     d = fresh_dir("nifti-header")
     out = os.path.join(d, "o.vtp")
-    good = os.path.join(d, "good.nii")
-    w = vtkNIFTIImageWriter()
-    w.SetFileName(good)
-    w.SetInputData(blob_image())
-    w.Write()
-    with open(good, "rb") as f:
-        data = bytearray(f.read())
+    good, data = written_nifti(d)
     expect(struct.unpack("<f", data[108:112])[0] >= 352, "vox_offset of the written file")
 
     def patched(fmt, at, *values):

@@ -1062,6 +1062,23 @@ def rows_with_normals(poly):
     return coordinate_rows(np.concatenate([points(poly)[ids], normals[ids]], axis=2))
 
 
+def grouped_wavelet():
+    """A Wavelet source (17^3 samples) through a group filter (a composite
+    input, as ParaView's Group Datasets makes) into the filter, contour
+    value 150: the source and the filter."""
+    from vtkmodules.vtkFiltersGeneral import vtkMultiBlockDataGroupFilter
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    source = vtkRTAnalyticSource()
+    source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
+    group = vtkMultiBlockDataGroupFilter()
+    group.AddInputConnection(source.GetOutputPort())
+    f = vtkPreciseMarchingCubes()
+    f.SetInputConnection(group.GetOutputPort())
+    f.SetValue(0, 150.0)
+    return source, f
+
+
 # Run in this order on the same pipelines: each asks the grouped source for
 # a different ghost layer (a cubic run after a trilinear one lost half its
 # triangles under MPI when the blocks' runs left their own request on the
@@ -1088,17 +1105,8 @@ def test_blocks_of_a_composite_input_in_pieces_equal_the_serial_surface(pieces):
     49924 triangles where the serial run has 50824). Each piece has a
     pipeline of its own, as a process of a distributed run has, and the
     runs follow each other on it, changing the ghost layer asked for."""
-    from vtkmodules.vtkFiltersGeneral import vtkMultiBlockDataGroupFilter
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
-
     def pipeline():
-        source = vtkRTAnalyticSource()
-        source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
-        group = vtkMultiBlockDataGroupFilter()
-        group.AddInputConnection(source.GetOutputPort())
-        f = vtkPreciseMarchingCubes()
-        f.SetInputConnection(group.GetOutputPort())
-        f.SetValue(0, 150.0)
+        source, f = grouped_wavelet()
         f.SetValue(1, 200.0)
         f.SetOutputPointsPrecision(1)
         return source, f, ErrorObserver(f)
@@ -1135,16 +1143,7 @@ def test_b_spline_interpolating_on_blocks_of_a_composite_input_in_pieces_warns()
     """Its prefilter couples whole lines of samples: a block that is a piece
     of the volume gives a surface that differs from the serial one, which a
     composite request cannot avoid (it cannot name the whole volume): said."""
-    from vtkmodules.vtkFiltersGeneral import vtkMultiBlockDataGroupFilter
-    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
-
-    source = vtkRTAnalyticSource()
-    source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
-    group = vtkMultiBlockDataGroupFilter()
-    group.AddInputConnection(source.GetOutputPort())
-    f = vtkPreciseMarchingCubes()
-    f.SetInputConnection(group.GetOutputPort())
-    f.SetValue(0, 150.0)
+    _, f = grouped_wavelet()
     f.SetReconstructionFilter(RECONSTRUCTIONS["BSplineInterpolating"])
     observer = ErrorObserver(f)
     f.UpdatePiece(0, 1, 0)
