@@ -1284,7 +1284,11 @@ int vtkPreciseMarchingCubes::Contour(
     }
     if (!InverseTranspose(scaled, normalMatrix))
     {
-      vtkErrorMacro(<< "The direction matrix of the input is singular");
+      // (A matrix scaled by 1e-300 or 1e300 is invertible, but its
+      // determinant under- or overflows: said so, not called singular.)
+      vtkErrorMacro(<< "The direction matrix of the input is singular, or its determinant "
+                       "under- or overflows double precision (a direction matrix turns or "
+                       "mirrors: its columns have unit length)");
       output->Initialize();
       return 1;
     }

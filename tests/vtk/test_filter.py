@@ -506,6 +506,12 @@ def test_singular_direction_is_refused_before_any_work():
         image.SetDirectionMatrix(1, 0, 0, 0, 1, bad, 0, 0, 1)
         f = refused(image, 150.0, "NaN or infinite entry")
         assert f.GetNumberOfExecutions() == 0
+    # A scaled matrix is invertible, but its determinant under- or
+    # overflows: said so (it was called singular, nothing more).
+    for scale in (1e-300, 1e300):
+        image = wavelet(8)
+        image.SetDirectionMatrix(scale, 0, 0, 0, scale, 0, 0, 0, scale)
+        refused(image, 150.0, "determinant under- or overflows")
 
 
 @pytest.mark.parametrize("direction, spacing", [
