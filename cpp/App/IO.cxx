@@ -220,6 +220,17 @@ const long long MaxSliceFiles = 1 << 16;
 std::string SlicePatternProblem(const std::string& pattern)
 {
   int conversions = 0;
+  const auto at = [&pattern](size_t j) { return j < pattern.size() ? pattern[j] : '\0'; };
+  // At most three digits of width or precision: "%999999999d" asked
+  // MetaIO for a name of a billion characters.
+  const auto digits = [&](size_t& j) {
+    const size_t from = j;
+    while (std::isdigit(static_cast<unsigned char>(at(j))))
+    {
+      ++j;
+    }
+    return j - from <= 3;
+  };
   for (size_t i = 0; i < pattern.size(); ++i)
   {
     if (pattern[i] != '%')
@@ -227,28 +238,22 @@ std::string SlicePatternProblem(const std::string& pattern)
       continue;
     }
     size_t j = i + 1;
-    if (j < pattern.size() && pattern[j] == '%')
+    if (at(j) == '%')
     {
       i = j;
       continue;
     }
-    while (j < pattern.size() && std::strchr("-+ #0", pattern[j]))
+    while (at(j) != '\0' && std::strchr("-+ #0", at(j)))
     {
       ++j;
     }
-    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])))
+    bool short_enough = digits(j);
+    if (at(j) == '.')
     {
       ++j;
+      short_enough = digits(j) && short_enough;
     }
-    if (j < pattern.size() && pattern[j] == '.')
-    {
-      ++j;
-      while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])))
-      {
-        ++j;
-      }
-    }
-    if (j >= pattern.size() || !std::strchr("diouxX", pattern[j]))
+    if (!short_enough || at(j) == '\0' || !std::strchr("diouxX", at(j)))
     {
       return "holds '" + pattern.substr(i, std::min(pattern.size(), j + 1) - i) +
         "', not an integer conversion (%d, %03d, ...)";

@@ -2107,8 +2107,8 @@ int vtkPreciseMarchingCubes::RequestUpdateExtent(
     // extent again (half the surface lost when the ghost layer asked for
     // changed). A composite input is asked for by piece only.
     inInfo->Remove(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT());
-    inInfo->Set(
-      vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(), numPieces > 1 ? ghostSamples : 0);
+    inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_GHOST_LEVELS(),
+      numPieces > 1 ? ghostSamples : 0);
     return result;
   }
   const bool block = IsBlockRequest(request);

@@ -2075,6 +2075,7 @@ def slice_file_names_vtk_crashes_or_hangs_on_are_refused():
         ("conv-n.mhd", mhd % "s%n.raw 1 10 1", "holds '%n', not an integer conversion"),
         ("conv-long.mhd", mhd % "s%03ld.raw 1 10 1", "holds '%03l'"),
         ("two.mhd", mhd % "s%d%d.raw 1 10 1", "holds 2 integer conversions"),
+        ("wide.mhd", mhd % "s%999999999d.raw 1 10 1", "holds '%999999999d'"),
         ("ndims-negative.mhd", mhd.replace("NDims = 3", "NDims = -1") % "all.raw",
          "NDims = -1, not a number of dimensions"),
         ("ndims-huge.mhd", mhd.replace("NDims = 3", "NDims = 2147483647") % "all.raw",
