@@ -221,8 +221,8 @@ std::string SlicePatternProblem(const std::string& pattern)
 {
   int conversions = 0;
   const auto at = [&pattern](size_t j) { return j < pattern.size() ? pattern[j] : '\0'; };
-  // At most three digits of width or precision: "%999999999d" asked
-  // MetaIO for a name of a billion characters.
+  // At most three digits of width or precision: "%999999999d" would make
+  // a file name a billion characters long.
   const auto digits = [&](size_t& j) {
     const size_t from = j;
     while (std::isdigit(static_cast<unsigned char>(at(j))))
