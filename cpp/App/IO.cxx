@@ -404,6 +404,7 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   }
   in.seekg(0);
   bool unterminated = false;     // the last line read had no newline
+  bool sizesFirst = false;       // a sizes field before the dimension field
   std::string dataFile;          // the "data file" value, "" if absent
   bool listing = false;          // reading the files after "data file: LIST"
   std::vector<std::string> listed;
@@ -447,51 +448,57 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
       controlAt = lineStart + static_cast<size_t>(control - line.begin());
       controlByte = static_cast<unsigned char>(*control);
     }
-    std::string lower = line;
+    // A field as VTK's reader takes it: its exact name, ": ", its value
+    // (trimmed). A name in other case or without the blank after the colon
+    // is a field it does not know: "SIZES:" or "dimension:3" left it
+    // reading into an image it never allocated (SIGSEGV), so they count
+    // as missing here too. Comments and "key:=value" pairs aside.
+    const size_t delimiter = line.find(": ");
+    if (line[0] == '#' || delimiter == std::string::npos)
+    {
+      continue;
+    }
+    const std::string field = line.substr(0, delimiter);
+    std::string description = line.substr(delimiter + 2);
+    description.erase(0, description.find_first_not_of(" \t"));
+    description.erase(description.find_last_not_of(" \t") + 1);
+    std::string lower = description;
     std::transform(lower.begin(), lower.end(), lower.begin(),
       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    auto value = [&lower](size_t from) {
-      std::string v = lower.substr(from);
-      v.erase(0, v.find_first_not_of(" \t"));
-      v.erase(v.find_last_not_of(" \t") + 1);
-      return v;
-    };
-    if (lower.compare(0, 9, "encoding:") == 0)
+    if (field == "encoding")
     {
-      std::string v = value(9);
-      ascii = v == "ascii" || v == "text" || v == "txt";
+      ascii = lower == "ascii" || lower == "text" || lower == "txt";
     }
-    if (lower.compare(0, 10, "data file:") == 0 || lower.compare(0, 9, "datafile:") == 0)
+    if (field == "data file" || field == "datafile")
     {
       detached = true;
-      dataFile = line.substr(line.find(':') + 1);
-      dataFile.erase(0, dataFile.find_first_not_of(" \t"));
-      dataFile.erase(dataFile.find_last_not_of(" \t") + 1);
+      dataFile = description;
       listing = dataFile.compare(0, 4, "LIST") == 0;
     }
-    if (lower.compare(0, 10, "dimension:") == 0)
+    if (field == "dimension")
     {
-      dimension = value(10);
+      dimension = description;
     }
-    if (lower.compare(0, 6, "kinds:") == 0)
+    if (field == "kinds")
     {
-      std::istringstream(value(6)) >> firstKind;
+      std::istringstream(lower) >> firstKind;
     }
-    if (lower.compare(0, 17, "space directions:") == 0)
+    if (field == "space directions")
     {
       // "(1,0,0) (0,1,0) ..." or "none ...": the first entry up to its
       // closing parenthesis.
-      std::string v = value(17);
-      firstDirection = v.compare(0, 4, "none") == 0 ? "none" : v.substr(0, v.find(')') + 1);
-      header.directions = v;
+      firstDirection =
+        lower.compare(0, 4, "none") == 0 ? "none" : lower.substr(0, lower.find(')') + 1);
+      header.directions = lower;
     }
-    if (lower.compare(0, 13, "space origin:") == 0)
+    if (field == "space origin")
     {
-      header.origin = value(13);
+      header.origin = lower;
     }
-    if (lower.compare(0, 6, "sizes:") == 0)
+    if (field == "sizes")
     {
-      std::string v = value(6);
+      sizesFirst = sizesFirst || dimension.empty();
+      const std::string& v = description;
       std::istringstream tokens(v);
       std::string token;
       sizes.clear();
@@ -512,6 +519,13 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, "no blank line ends the header before the data (VTK's NRRD reader would "
                      "never stop reading it)");
+  }
+  if (!ended && read >= headerLimit)
+  {
+    // (A detached header: its lines past the window went unchecked, and
+    // VTK's reader crashed or hung on them.)
+    Unreadable(path, "its header does not end within its first " +
+        std::to_string(headerLimit >> 20) + " MiB");
   }
   if (!ended && unterminated)
   {
@@ -545,6 +559,12 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     Unreadable(path, "the header declares dimension " + dimension +
         ": VTK's NRRD reader reads volumes of dimension 3 (or 4, the first axis being vector "
         "components)");
+  }
+  if (sizesFirst)
+  {
+    // VTK's reader sizes its list of sizes by the dimension read so far.
+    Unreadable(path, "its sizes field comes before its dimension field (VTK's NRRD reader "
+                     "then reads no size, and crashed)");
   }
   if (sizes.size() != static_cast<size_t>(dimension[0] - '0'))
   {
@@ -700,12 +720,16 @@ std::string TrimHeaderText(std::string t)
   return t;
 }
 
+// The bytes of a MetaImage file its header must end in (see
+// CheckMetaImageHeaderLines()).
+const size_t MetaImageHeaderLimit = size_t(1) << 16;
+
 // The fields of a MetaImage header, up to ElementDataFile (the last, after
 // which LOCAL data starts), keys and values trimmed.
 std::vector<MetaField> MetaImageFields(const std::string& path)
 {
   std::vector<MetaField> fields;
-  std::istringstream header(FileHead(path, 1 << 16));
+  std::istringstream header(FileHead(path, MetaImageHeaderLimit));
   std::string line;
   size_t consumed = 0;
   while (std::getline(header, line))
@@ -745,7 +769,9 @@ MetaImageLayout ReadMetaImageLayout(const std::string& path)
     std::istringstream values(field.value);
     if (field.key == "CompressedData")
     {
-      layout.compressed = field.value == "True" || field.value == "true";
+      // MetaIO's boolean: true when it starts with T, t or 1 ("TRUE", "1").
+      const char first = field.value.empty() ? '\0' : field.value[0];
+      layout.compressed = first == 'T' || first == 't' || first == '1';
     }
     else if (field.key == "DimSize")
     {
@@ -1247,6 +1273,90 @@ void CheckAppendedData(const std::string& path)
   }
 }
 
+// A compressed .vti array whose block header (header_type words: the
+// number of blocks, the size of a block, the size of the last one, then
+// each block's compressed size) gives no block, blocks of 0 bytes, or a
+// last block larger than a block: VTK 9.1's reader dereferenced a null
+// block (SIGSEGV) or divided by the block size (SIGFPE). Appended (raw or
+// base64) and inline arrays, in the first MiB of the file; an array of no
+// tuples may have no block.
+void CheckCompressedBlockHeaders(const std::string& path)
+{
+  const std::string head = FileHead(path, 1 << 20);
+  const size_t fileTag = head.find("<VTKFile");
+  if (fileTag == std::string::npos)
+  {
+    return;
+  }
+  const std::string vtkFile = head.substr(fileTag, head.find('>', fileTag) - fileTag);
+  if (XmlAttribute(vtkFile, "compressor").empty())
+  {
+    return;
+  }
+  const int headerSize = XmlAttribute(vtkFile, "header_type") == "UInt64" ? 8 : 4;
+  const bool bigEndian = XmlAttribute(vtkFile, "byte_order") == "BigEndian";
+  const size_t words = static_cast<size_t>(3 * headerSize);
+  const size_t appended = head.find("<AppendedData");
+  const size_t appendedEnd = appended == std::string::npos ? appended : head.find('>', appended);
+  const bool base64 = appendedEnd != std::string::npos &&
+    XmlAttribute(head.substr(appended, appendedEnd - appended), "encoding") == "base64";
+  const size_t underscore =
+    appendedEnd == std::string::npos ? std::string::npos : head.find('_', appendedEnd);
+  std::ifstream in(path, std::ios::binary);
+  for (size_t at = head.find("<DataArray"); at != std::string::npos && at < appended;
+       at = head.find("<DataArray", at + 1))
+  {
+    const size_t close = head.find('>', at);
+    if (close == std::string::npos)
+    {
+      return;
+    }
+    const std::string tag = head.substr(at, close - at);
+    const std::string format = XmlAttribute(tag, "format");
+    std::string header; // the first three words of the block header
+    if (format == "binary")
+    {
+      header = Base64Prefix(head.substr(close + 1, 4 * words), words);
+    }
+    else if (format == "appended" && underscore != std::string::npos)
+    {
+      const unsigned long long offset =
+        std::strtoull(XmlAttribute(tag, "offset").c_str(), nullptr, 10);
+      const size_t stored = base64 ? (words + 2) / 3 * 4 : words;
+      std::string raw(stored, '\0');
+      in.clear();
+      in.seekg(static_cast<std::streamoff>(underscore + 1 + offset));
+      in.read(&raw[0], static_cast<std::streamsize>(stored));
+      raw.resize(static_cast<size_t>(std::max<std::streamsize>(0, in.gcount())));
+      header = base64 ? Base64Prefix(raw, words) : raw;
+    }
+    else
+    {
+      continue;
+    }
+    unsigned long long blocks = 0, blockSize = 0, lastSize = 0;
+    if (!BlockByteCount(header, headerSize, bigEndian, blocks) ||
+      !BlockByteCount(header.substr(static_cast<size_t>(headerSize)), headerSize, bigEndian,
+        blockSize) ||
+      !BlockByteCount(header.substr(static_cast<size_t>(2 * headerSize)), headerSize, bigEndian,
+        lastSize))
+    {
+      continue; // cut short: the reader says so
+    }
+    if (XmlAttribute(tag, "NumberOfTuples") == "0" && blocks == 0)
+    {
+      continue;
+    }
+    if (blocks == 0 || blockSize == 0 || lastSize > blockSize)
+    {
+      Unreadable(path, "the compressed data of array '" + XmlAttribute(tag, "Name") +
+          "' has a block header of " + std::to_string(blocks) + " blocks of " +
+          std::to_string(blockSize) + " bytes, the last of " + std::to_string(lastSize) +
+          ", which VTK's XML reader crashes on");
+    }
+  }
+}
+
 // A .vti whose uncompressed inline binary (base64) DataArray holds fewer
 // characters than its header's byte count needs (cut short, the element
 // closed again): VTK 9.1's reader reads on into the closing tag and fills
@@ -1725,9 +1835,10 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
 void CheckMetaImageHeaderLines(const std::string& path)
 {
   const size_t limit = 254; // characters; the 255th byte ends the string
-  std::istringstream header(FileHead(path, 1 << 16));
+  std::istringstream header(FileHead(path, MetaImageHeaderLimit));
   std::string line;
   int number = 0;
+  bool ended = false;
   while (std::getline(header, line))
   {
     ++number;
@@ -1759,8 +1870,17 @@ void CheckMetaImageHeaderLines(const std::string& path)
     }
     if (key == "ElementDataFile")
     {
-      break; // the end of the header
+      ended = true; // the end of the header
+      break;
     }
+  }
+  // Every check reads the header in this window: one that does not end in
+  // it (thousands of comment lines first) was read by VTK's reader
+  // unchecked, and crashed or hung as the checks say.
+  if (!ended)
+  {
+    Unreadable(path, "no ElementDataFile line ends its header within its first " +
+        std::to_string(MetaImageHeaderLimit / 1024) + " KiB");
   }
 }
 
@@ -1857,6 +1977,13 @@ void CheckMetaImageDataFiles(const std::string& path)
   const MetaImageLayout layout = ReadMetaImageLayout(path);
   const std::vector<long long>& dims = layout.dims;
   const std::string& dataFile = layout.dataFile;
+  if (layout.channels < 1)
+  {
+    // VTK's reader then read none of the file's samples, but memory it
+    // never wrote, exit status 0.
+    Unreadable(path, "its header gives " + std::to_string(layout.channels) +
+        " channels (ElementNumberOfChannels): at least 1");
+  }
   if (dims.size() >= 2 && dataFile.compare(0, 4, "LIST") == 0)
   {
     // Bytes of one element; 0 (an unknown type) checks no file's size.
@@ -2035,56 +2162,113 @@ void CheckLegacySize(const std::string& path)
   std::istringstream header(FileHead(path, 1 << 16));
   std::string line;
   bool binary = false;
-  unsigned long long points = 0;
+  unsigned long long count = 0; // of POINT_DATA or CELL_DATA
+  const auto upper = [](std::string w) {
+    std::transform(w.begin(), w.end(), w.begin(),
+      [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+    return w;
+  };
+  // Bytes of a value of a legacy type name (any case, as the reader takes
+  // it); 0 for bit, -1 for a name it does not know.
+  const auto typeSize = [](std::string type) {
+    std::transform(type.begin(), type.end(), type.begin(),
+      [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    static const std::pair<const char*, int> sizes[] = { { "bit", 0 }, { "char", 1 },
+      { "unsigned_char", 1 }, { "short", 2 }, { "unsigned_short", 2 }, { "int", 4 },
+      { "unsigned_int", 4 }, { "long", 8 }, { "unsigned_long", 8 }, { "float", 4 },
+      { "double", 8 }, { "vtktypeint64", 8 }, { "vtktypeuint64", 8 } };
+    int size = -1;
+    for (const auto& t : sizes)
+    {
+      size = type == t.first ? t.second : size;
+    }
+    return size;
+  };
   while (std::getline(header, line))
   {
     std::istringstream words(line);
     std::string word;
     words >> word;
-    std::transform(word.begin(), word.end(), word.begin(),
-      [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+    word = upper(word);
     if (word == "BINARY")
     {
       binary = true;
+      continue;
     }
-    else if (word == "POINT_DATA")
+    if (word == "POINT_DATA" || word == "CELL_DATA")
     {
-      words >> points;
+      words >> count;
+      continue;
     }
-    else if (word == "SCALARS" && points > 0)
+    if (count == 0)
     {
-      std::string name;
-      std::string type;
-      unsigned long long components = 1;
+      continue;
+    }
+    // The first attribute's values: `tuples` of `components` values of
+    // `type` (the declared count's, or a FIELD array's own).
+    std::string name, type;
+    unsigned long long components = 0;
+    unsigned long long tuples = count;
+    if (word == "SCALARS")
+    {
       words >> name >> type;
       if (!(words >> components) || components < 1 || components > 4)
       {
         components = 1;
       }
-      static const std::pair<const char*, int> sizes[] = { { "bit", 0 }, { "char", 1 },
-        { "unsigned_char", 1 }, { "short", 2 }, { "unsigned_short", 2 }, { "int", 4 },
-        { "unsigned_int", 4 }, { "long", 8 }, { "unsigned_long", 8 }, { "float", 4 },
-        { "double", 8 }, { "vtktypeint64", 8 }, { "vtktypeuint64", 8 } };
-      int size = -1;
-      for (const auto& t : sizes)
-      {
-        size = type == t.first ? t.second : size;
-      }
-      if (size <= 0 || points > (1ULL << 60) / components / 8)
-      {
-        return; // the reader, or the declared-size check, speaks of these
-      }
-      const unsigned long long need = points * components * (binary ? size : 2);
-      std::ifstream in(path, std::ios::binary | std::ios::ate);
-      const unsigned long long have = in ? static_cast<unsigned long long>(in.tellg()) : 0;
-      if (have < need)
-      {
-        Unreadable(path, "the file holds " + std::to_string(have) + " bytes, fewer than the " +
-            std::to_string(need) + " that the " + std::to_string(points * components) + " " +
-            (binary ? "" : "ASCII ") + type + " samples its header declares need");
-      }
-      return;
     }
+    else if (word == "VECTORS" || word == "NORMALS")
+    {
+      words >> name >> type;
+      components = 3;
+    }
+    else if (word == "TENSORS" || word == "TENSORS6")
+    {
+      words >> name >> type;
+      components = word == "TENSORS" ? 9 : 6;
+    }
+    else if (word == "TEXTURE_COORDINATES")
+    {
+      words >> name >> components >> type;
+    }
+    else if (word == "COLOR_SCALARS")
+    {
+      words >> name >> components;
+      type = binary ? "unsigned_char" : "float";
+    }
+    else if (word == "FIELD")
+    {
+      // The first array's line: name, components, tuples, type.
+      std::string arrayLine;
+      if (!std::getline(header, arrayLine))
+      {
+        return;
+      }
+      std::istringstream array(arrayLine);
+      array >> name >> components >> tuples >> type;
+    }
+    else
+    {
+      continue;
+    }
+    const int size = typeSize(type);
+    if (size <= 0 || components < 1 || components > 64 || tuples < 1 ||
+      tuples > (1ULL << 60) / components / 8)
+    {
+      return; // the reader, or the declared-size check, speaks of these
+    }
+    const unsigned long long values = tuples * components;
+    const unsigned long long need = values * (binary ? static_cast<unsigned long long>(size) : 2);
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    const unsigned long long have = in ? static_cast<unsigned long long>(in.tellg()) : 0;
+    if (have < need)
+    {
+      Unreadable(path, "the file holds " + std::to_string(have) + " bytes, fewer than the " +
+          std::to_string(need) + " that the " + std::to_string(values) + " " +
+          (binary ? "" : "ASCII ") + type + " values of its first attribute (" + word +
+          ") need");
+    }
+    return;
   }
 }
 
@@ -2488,6 +2672,7 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
       CheckVtiGeometry(path);
       CheckAppendedData(path);
       CheckInlineBinaryData(path);
+      CheckCompressedBlockHeaders(path);
     }
   }
   else

@@ -681,13 +681,31 @@ def error_corrupt_inputs():
     head = data[: data.index(b"LOOKUP_TABLE default\n") + 21]
     head = re.sub(rb"DIMENSIONS \d+ \d+ \d+", b"DIMENSIONS 1000 1000 1000", head)
     head = re.sub(rb"POINT_DATA \d+", b"POINT_DATA 1000000000", head)
-    huge = os.path.join(d, "huge.vtk")
-    with open(huge, "wb") as f:
-        f.write(head + b"\0" * 4000)
-    started = time.monotonic()
-    expect_error([huge, "-o", os.path.join(d, "o.vtp")], "fewer than the 4000000000 that the "
-                 "1000000000 float samples its header declares need", status=1)
-    expect(time.monotonic() - started < 60, "the huge header was read before it was refused")
+    # So is any first attribute: vectors (11.7 GB and 40 s), a type in
+    # capitals (which the reader takes) or a FIELD array were not sized
+    # until the fifty-second session.
+    attribute = re.search(rb"SCALARS \S+ float( 1)?\nLOOKUP_TABLE default\n", head)
+    expect(attribute is not None, "the legacy writer's SCALARS line")
+    for label, line, fragment in (
+            ("scalars", attribute.group(0),
+             "fewer than the 4000000000 that the 1000000000 float values of its first "
+             "attribute (SCALARS) need"),
+            ("capitals", b"SCALARS s FLOAT\nLOOKUP_TABLE default\n",
+             "1000000000 FLOAT values of its first attribute (SCALARS)"),
+            ("vectors", b"VECTORS v float\n",
+             "fewer than the 12000000000 that the 3000000000 float values of its first "
+             "attribute (VECTORS) need"),
+            ("field", b"FIELD f 1\nv 1 1000000000 float\n",
+             "1000000000 float values of its first attribute (FIELD)")):
+        huge = os.path.join(d, f"huge-{label}.vtk")
+        with open(huge, "wb") as f:
+            f.write(head.replace(attribute.group(0), line) + b"\0" * 4000)
+        started = time.monotonic()
+        try:
+            expect_error([huge, "-o", os.path.join(d, "o.vtp")], fragment, status=1)
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+        expect(time.monotonic() - started < 60, f"{label}: read before it was refused")
     # Empty file.
     path = os.path.join(d, "empty.vti")
     open(path, "w").close()
@@ -2111,6 +2129,107 @@ def slice_file_names_vtk_crashes_or_hangs_on_are_refused():
         with open(path, "w") as f:
             f.write(text)
         ok(path, "-q", "-v", "100", "-o", out)
+
+
+def compressed_vti(path, inline):
+    """The blob written by VTK's XML writer with zlib compression to `path`
+    (appended raw data, or inline base64 with `inline`): its bytes, and
+    where the first array's block header starts and how long its words
+    are (bytes; in base64 characters for inline data)."""
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+    w = vtkXMLImageDataWriter()
+    w.SetFileName(path)
+    w.SetInputData(blob_image())
+    w.SetCompressorTypeToZLib()
+    if inline:
+        w.SetDataModeToBinary()
+    else:
+        w.SetDataModeToAppended()
+        w.EncodeAppendedDataOff()
+    w.Write()
+    with open(path, "rb") as f:
+        data = f.read()
+    word = 8 if b'header_type="UInt64"' in data else 4
+    if inline:
+        at = data.index(b">", data.index(b"<DataArray")) + 1
+        while data[at:at + 1].isspace():
+            at += 1
+    else:
+        at = data.index(b"_", data.index(b"<AppendedData")) + 1
+    return data, at, word
+
+
+@check
+def headers_vtk_crashes_on_past_the_first_checks_are_refused():
+    """A second review under AddressSanitizer (fifty-second session): a
+    compressed .vti whose block header gives 0 blocks or blocks of 0 bytes
+    (SIGSEGV, SIGFPE in VTK's XML reader), NRRD fields spelled so that VTK's
+    reader does not know them ("SIZES:", "dimension:3") or sizes before
+    the dimension (SIGSEGV: it read into an image it never allocated), a
+    MetaImage header or a detached NRRD header too long for the checks'
+    window (the checks were skipped: a %s pattern crashed), and a
+    MetaImage of 0 channels (memory never written read as samples, exit
+    0). Each refused with its reason; compressed data VTK wrote still
+    reads, and a MetaImage marked compressed as "TRUE" is checked as one
+    marked "True"."""
+    import base64
+    import zlib
+    d = fresh_dir("past-the-checks")
+    out = os.path.join(d, "o.vtp")
+    for inline in (False, True):
+        good = os.path.join(d, f"good-{'inline' if inline else 'appended'}.vti")
+        data, at, word = compressed_vti(good, inline)
+        ok(good, "-q", "-o", os.path.join(d, "good.vtp"))
+        for label, index in (("blocks0", 0), ("blocksize0", 1)):
+            if inline:
+                header = bytearray(base64.b64decode(data[at:at + 4 * 3 * word]))
+                header[index * word:(index + 1) * word] = bytes(word)
+                patched = data[:at] + base64.b64encode(bytes(header)) + data[at + 4 * 3 * word:]
+            else:
+                patched = data[:at + index * word] + bytes(word) + data[at + (index + 1) * word:]
+            path = good.replace("good", label)
+            with open(path, "wb") as f:
+                f.write(patched)
+            expect_refused_in_time(path, "which VTK's XML reader crashes on", out)
+    samples = np.arange(16 ** 3, dtype="<f4").tobytes()
+    for name, head, fragment in (
+            ("upper.nrrd", "NRRD0004\ntype: float\ndimension: 3\nSIZES: 16 16 16\n",
+             "declares dimension 3 but 0 sizes"),
+            ("tight.nrrd", "NRRD0004\ntype: float\ndimension:3\nsizes: 16 16 16\n",
+             "no dimension field"),
+            ("order.nrrd", "NRRD0004\ntype: float\nsizes: 16 16 16\ndimension: 3\n",
+             "sizes field comes before its dimension field")):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(head.encode() + b"endian: little\nencoding: raw\n\n" + samples)
+        expect_refused_in_time(path, fragment, out)
+    with open(os.path.join(d, "s.raw"), "wb") as f:
+        f.write(samples)
+    comments = "".join(f"Comment{k} = x\n" for k in range(6000))
+    path = os.path.join(d, "long.mhd")
+    with open(path, "w") as f:
+        f.write("ObjectType = Image\nNDims = 3\nDimSize = 16 16 16\nElementType = MET_FLOAT\n"
+                + comments + "ElementDataFile = s%s.raw 1 16 1\n")
+    expect_refused_in_time(path, "no ElementDataFile line ends its header within its first 64 KiB",
+                           out)
+    path = os.path.join(d, "long.nhdr")
+    with open(path, "w") as f:
+        f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: 16 16 16\nencoding: raw\n"
+                "data file: s.raw\n" + "# x\n" * 400000 + "data file: s%s.raw 1 16 1\n")
+    expect_refused_in_time(path, "its header does not end within its first 1 MiB", out)
+    path = os.path.join(d, "channels0.mhd")
+    with open(path, "w") as f:
+        f.write("ObjectType = Image\nNDims = 3\nDimSize = 16 16 16\nElementType = MET_FLOAT\n"
+                "ElementNumberOfChannels = 0\nElementDataFile = s.raw\n")
+    expect_refused_in_time(path, "0 channels (ElementNumberOfChannels)", out)
+    half = zlib.compress(samples)
+    half = half[:len(half) // 2]
+    for flag in ("TRUE", "1"):
+        path = os.path.join(d, f"zhalf-{flag}.mha")
+        with open(path, "wb") as f:
+            f.write(("ObjectType = Image\nNDims = 3\nDimSize = 16 16 16\nElementType = MET_FLOAT\n"
+                     f"CompressedData = {flag}\nElementDataFile = LOCAL\n").encode() + half)
+        expect_refused_in_time(path, "its compressed data holds", out)
 
 
 @check
