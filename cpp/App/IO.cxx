@@ -1049,6 +1049,36 @@ bool FindXmlAttribute(const std::string& tag, const std::string& name, std::stri
   return false;
 }
 
+// The bytes of a .vti file its checks read for the XML part (a large
+// ASCII FieldData array before the data, or a long comment, pushed the
+// tags a 64 KiB or 1 MiB window held out of it, and the checks passed).
+const size_t VtiXmlWindow = size_t(1) << 24;
+
+// Where `tag` (as "<ImageData") starts in `xml` from `from` on, outside
+// its comments ("<!-- ... -->"; an unclosed one runs to the end);
+// npos if nowhere. A tag written in a comment is none: an <ImageData
+// Origin="0 0 0"> or an <AppendedData> there was checked in place of the
+// real one, and a NaN origin or a cut block passed.
+size_t FindTag(const std::string& xml, const std::string& tag, size_t from = 0)
+{
+  size_t at = xml.find(tag, from);
+  size_t open = xml.find("<!--");
+  while (at != std::string::npos && open != std::string::npos && open <= at)
+  {
+    const size_t close = xml.find("-->", open + 4);
+    if (close == std::string::npos)
+    {
+      return std::string::npos; // inside a comment that runs to the end
+    }
+    if (at < close + 3)
+    {
+      at = xml.find(tag, close + 3); // inside this comment: look past it
+    }
+    open = xml.find("<!--", close + 3);
+  }
+  return at;
+}
+
 // The value of attribute `name` in the XML start tag `tag` ("" if absent).
 std::string XmlAttribute(const std::string& tag, const std::string& name)
 {
@@ -1074,8 +1104,8 @@ std::string FileHead(const std::string& path, size_t bytes)
 // came out at a place and scale the file does not give.
 void CheckVtiGeometry(const std::string& path)
 {
-  const std::string head = FileHead(path, 1 << 16);
-  const size_t tag = head.find("<ImageData");
+  const std::string head = FileHead(path, VtiXmlWindow);
+  const size_t tag = FindTag(head, "<ImageData");
   const size_t end = tag == std::string::npos ? tag : head.find('>', tag);
   if (end == std::string::npos)
   {
@@ -1182,16 +1212,16 @@ unsigned long long Base64BlockSize(int headerSize, unsigned long long count)
 // not looked at here: its reader fails on a cut block.)
 void CheckAppendedData(const std::string& path)
 {
-  // The XML part comes first and is small; the appended data follows the
-  // '_' after <AppendedData ...>.
-  const std::string head = FileHead(path, 1 << 20);
+  // The XML part comes first; the appended data follows the '_' after
+  // <AppendedData ...>.
+  const std::string head = FileHead(path, VtiXmlWindow);
   std::ifstream in(path, std::ios::binary);
   if (!in)
   {
     return;
   }
-  const size_t appended = head.find("<AppendedData");
-  const size_t fileTag = head.find("<VTKFile");
+  const size_t appended = FindTag(head, "<AppendedData");
+  const size_t fileTag = FindTag(head, "<VTKFile");
   if (appended == std::string::npos || fileTag == std::string::npos)
   {
     return;
@@ -1233,8 +1263,8 @@ void CheckAppendedData(const std::string& path)
     }
     in.clear();
   }
-  for (size_t at = head.find("<DataArray"); at != std::string::npos && at < appended;
-       at = head.find("<DataArray", at + 1))
+  for (size_t at = FindTag(head, "<DataArray"); at != std::string::npos && at < appended;
+       at = FindTag(head, "<DataArray", at + 1))
   {
     const std::string tag = head.substr(at, head.find('>', at) - at);
     const std::string offsetText = XmlAttribute(tag, "offset");
@@ -1278,12 +1308,12 @@ void CheckAppendedData(const std::string& path)
 // each block's compressed size) gives no block, blocks of 0 bytes, or a
 // last block larger than a block: VTK 9.1's reader dereferenced a null
 // block (SIGSEGV) or divided by the block size (SIGFPE). Appended (raw or
-// base64) and inline arrays, in the first MiB of the file; an array of no
+// base64) and inline arrays, in the XML window of the file; an array of no
 // tuples may have no block.
 void CheckCompressedBlockHeaders(const std::string& path)
 {
-  const std::string head = FileHead(path, 1 << 20);
-  const size_t fileTag = head.find("<VTKFile");
+  const std::string head = FileHead(path, VtiXmlWindow);
+  const size_t fileTag = FindTag(head, "<VTKFile");
   if (fileTag == std::string::npos)
   {
     return;
@@ -1296,15 +1326,15 @@ void CheckCompressedBlockHeaders(const std::string& path)
   const int headerSize = XmlAttribute(vtkFile, "header_type") == "UInt64" ? 8 : 4;
   const bool bigEndian = XmlAttribute(vtkFile, "byte_order") == "BigEndian";
   const size_t words = static_cast<size_t>(3 * headerSize);
-  const size_t appended = head.find("<AppendedData");
+  const size_t appended = FindTag(head, "<AppendedData");
   const size_t appendedEnd = appended == std::string::npos ? appended : head.find('>', appended);
   const bool base64 = appendedEnd != std::string::npos &&
     XmlAttribute(head.substr(appended, appendedEnd - appended), "encoding") == "base64";
   const size_t underscore =
     appendedEnd == std::string::npos ? std::string::npos : head.find('_', appendedEnd);
   std::ifstream in(path, std::ios::binary);
-  for (size_t at = head.find("<DataArray"); at != std::string::npos && at < appended;
-       at = head.find("<DataArray", at + 1))
+  for (size_t at = FindTag(head, "<DataArray"); at != std::string::npos && at < appended;
+       at = FindTag(head, "<DataArray", at + 1))
   {
     const size_t close = head.find('>', at);
     if (close == std::string::npos)
@@ -1364,9 +1394,12 @@ void CheckCompressedBlockHeaders(const std::string& path)
 // up to any <AppendedData> (raw bytes follow it).
 void CheckInlineBinaryData(const std::string& path)
 {
-  const std::string head = FileHead(path, 1 << 16);
+  // (Any spelling of the attribute: format='binary' or format = "binary"
+  // passed a search for the text format="binary", as did a first binary
+  // array past the first 64 KiB.)
+  const std::string head = FileHead(path, VtiXmlWindow);
   const size_t fileTag = head.find("<VTKFile");
-  if (fileTag == std::string::npos || head.find("format=\"binary\"") == std::string::npos)
+  if (fileTag == std::string::npos || head.find("binary") == std::string::npos)
   {
     return;
   }
@@ -2354,6 +2387,30 @@ void CheckNiftiHeader(const std::string& path)
     {
       Unreadable(path, "its header gives " + std::to_string(dim(i)) + " " + names[i] +
           " (dim[" + std::to_string(i) + "]): every dimension used holds at least 1");
+    }
+  }
+  // The spacing of each spatial axis: pixdim[1..3], float32 from byte 80
+  // (NIfTI-1), double from byte 112 (NIfTI-2). VTK's reader takes 0 for 1
+  // without a word, where a spacing of 0 is refused in every other format.
+  for (int i = 1; i <= std::min<long long>(count, 3); ++i)
+  {
+    double spacing;
+    if (version == 1)
+    {
+      const uint32_t bits = static_cast<uint32_t>(number(76 + 4 * i, 4, swap));
+      float f;
+      std::memcpy(&f, &bits, sizeof(f));
+      spacing = f;
+    }
+    else
+    {
+      const uint64_t bits = number(104 + 8 * i, 8, swap);
+      std::memcpy(&spacing, &bits, sizeof(spacing));
+    }
+    if (spacing == 0.0)
+    {
+      Unreadable(path, "its header gives a spacing of 0 along axis " + std::to_string(i - 1) +
+          " (pixdim[" + std::to_string(i) + "])");
     }
   }
   // A single file ("n+1" or "n+2" magic) holds its data after the header

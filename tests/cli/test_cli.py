@@ -2233,13 +2233,72 @@ def headers_vtk_crashes_on_past_the_first_checks_are_refused():
 
 
 @check
+def vti_tags_hidden_from_the_checks_are_found():
+    """The .vti checks searched the text: an inline binary array cut short
+    but written format='binary' (or format = "binary"), a comment holding
+    an <ImageData Origin="0 0 0"> before the real element with a NaN
+    origin, or an <AppendedData> in a comment before a cut block, passed
+    them, and the file was read with zeros, garbage or the default origin,
+    exit status 0 (a second review under AddressSanitizer, fifty-second
+    session). Each refused; the files they came from still read."""
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter
+    d = fresh_dir("vti-hidden-tags")
+    out = os.path.join(d, "o.vtp")
+    files = {}
+    for mode in ("binary", "appended"):
+        path = os.path.join(d, f"{mode}.vti")
+        w = vtkXMLImageDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(blob_image())
+        w.SetCompressorTypeToNone()
+        if mode == "binary":
+            w.SetDataModeToBinary()
+        else:
+            w.SetDataModeToAppended()
+            w.EncodeAppendedDataOff()
+        w.Write()
+        ok(path, "-q", "-o", os.path.join(d, "good.vtp"))
+        with open(path, "rb") as f:
+            files[mode] = f.read()
+
+    def inside_root(data, comment):
+        end = data.index(b">", data.index(b"<VTKFile")) + 1
+        return data[:end] + b"\n" + comment + data[end:]
+
+    b = files["binary"]
+    start = b.index(b">", b.index(b'format="binary"')) + 1
+    stop = b.index(b"<", start)
+    short = b[:start] + b[start:stop][:(stop - start) // 2] + b"\n" + b[stop:]
+    a = files["appended"]
+    block = a.index(b"_", a.index(b"<AppendedData")) + 1
+    cut = a[:block + 4000] + a[block + 12000:]
+    origin = re.search(rb'Origin="[^"]*"', a).group(0)
+    cases = [
+        ("quote.vti", short.replace(b'format="binary"', b"format='binary'"),
+         "fewer than the"),
+        ("space.vti", short.replace(b'format="binary"', b'format = "binary"'),
+         "fewer than the"),
+        ("origin.vti", inside_root(a.replace(origin, b'Origin="nan 0 0"'),
+                                   b'<!-- <ImageData Origin="0 0 0"> -->'),
+         'its Origin "nan 0 0" is not 3 finite numbers'),
+        ("appended-comment.vti", inside_root(cut, b"<!-- <AppendedData> -->"),
+         "ends past the end of the file"),
+    ]
+    for name, content, fragment in cases:
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(content)
+        expect_refused_in_time(path, fragment, out)
+
+
+@check
 def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
     """0 vector components (dim[5]) made VTK 9.1's NIfTI reader divide by
     zero (SIGFPE), and a single-file .nii whose vox_offset lies inside the
     header (below 352) had the header's bytes read as samples, exit status
-    0; a dimension count beyond 7 or a used dimension of 0 are refused
-    too. .nii and .nii.gz alike; the file they were made from still
-    reads."""
+    0; a dimension count beyond 7, a used dimension of 0 and a spacing of
+    0 (pixdim, which the reader took for 1) are refused too. .nii and
+    .nii.gz alike; the file they were made from still reads."""
     import gzip
     d = fresh_dir("nifti-header")
     out = os.path.join(d, "o.vtp")
@@ -2260,6 +2319,7 @@ def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
         ("eight", patched("<8h", 40, 8, *dims[1:8]), "8 dimensions (dim[0])"),
         ("offset0", patched("<f", 108, 0.0), "data at byte 0 (vox_offset)"),
         ("offset348", patched("<f", 108, 348.0), "data at byte 348 (vox_offset)"),
+        ("spacing0", patched("<f", 84, 0.0), "spacing of 0 along axis 1 (pixdim[2])"),
     ]
     for label, content, fragment in cases:
         for ext in ("nii", "nii.gz"):
