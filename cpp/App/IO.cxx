@@ -757,6 +757,7 @@ struct MetaImageLayout
   long long channels = 1;      // ElementNumberOfChannels
   int elementSize = 0;         // bytes of an ElementType value; 0: a type of unknown size
   bool compressed = false;     // CompressedData
+  long long compressedSize = -1; // CompressedDataSize (bytes read), -1 if absent
   std::string dataFile;        // ElementDataFile
   size_t dataOffset = 0;       // just past the ElementDataFile line (LOCAL data, a LIST)
 };
@@ -780,6 +781,10 @@ MetaImageLayout ReadMetaImageLayout(const std::string& path)
       {
         layout.dims.push_back(n);
       }
+    }
+    else if (field.key == "CompressedDataSize")
+    {
+      values >> layout.compressedSize;
     }
     else if (field.key == "ElementNumberOfChannels")
     {
@@ -2156,11 +2161,19 @@ void CheckMetaImageCompressedSize(const std::string& path)
   std::vector<unsigned char> output(1 << 16);
   unsigned long long got = 0;
   int status = Z_OK;
+  // MetaIO reads CompressedDataSize bytes of compressed data when the
+  // header gives it (half of a whole stream was read as half the samples
+  // and zeros, exit status 0): inflated here from as many.
+  unsigned long long left = layout.compressedSize > 0
+    ? static_cast<unsigned long long>(layout.compressedSize)
+    : ~0ULL;
   while (status != Z_STREAM_END && got < want)
   {
     if (z.avail_in == 0)
     {
-      in.read(reinterpret_cast<char*>(input.data()), static_cast<std::streamsize>(input.size()));
+      in.read(reinterpret_cast<char*>(input.data()),
+        static_cast<std::streamsize>(std::min<unsigned long long>(input.size(), left)));
+      left -= static_cast<unsigned long long>(in.gcount());
       z.next_in = input.data();
       z.avail_in = static_cast<uInt>(in.gcount());
       if (z.avail_in == 0)

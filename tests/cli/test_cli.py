@@ -2170,8 +2170,8 @@ def headers_vtk_crashes_on_past_the_first_checks_are_refused():
     window (the checks were skipped: a %s pattern crashed), and a
     MetaImage of 0 channels (memory never written read as samples, exit
     0). Each refused with its reason; compressed data VTK wrote still
-    reads, and a MetaImage marked compressed as "TRUE" is checked as one
-    marked "True"."""
+    reads, a MetaImage marked compressed as "TRUE" is checked as one
+    marked "True", and its CompressedDataSize bytes are the ones checked."""
     import base64
     import zlib
     d = fresh_dir("past-the-checks")
@@ -2222,8 +2222,20 @@ def headers_vtk_crashes_on_past_the_first_checks_are_refused():
         f.write("ObjectType = Image\nNDims = 3\nDimSize = 16 16 16\nElementType = MET_FLOAT\n"
                 "ElementNumberOfChannels = 0\nElementDataFile = s.raw\n")
     expect_refused_in_time(path, "0 channels (ElementNumberOfChannels)", out)
-    half = zlib.compress(samples)
-    half = half[:len(half) // 2]
+    whole = zlib.compress(samples)
+    half = whole[:len(whole) // 2]
+    meta = ("ObjectType = Image\nNDims = 3\nDimSize = 16 16 16\nElementType = MET_FLOAT\n"
+            "CompressedData = True\nCompressedDataSize = %d\nElementDataFile = LOCAL\n")
+    # The reader reads CompressedDataSize bytes of the stream: half of it
+    # read as half the samples and zeros, exit status 0.
+    path = os.path.join(d, "size-half.mha")
+    with open(path, "wb") as f:
+        f.write((meta % len(half)).encode() + whole)
+    expect_refused_in_time(path, "its compressed data holds", out)
+    path = os.path.join(d, "size-whole.mha")
+    with open(path, "wb") as f:
+        f.write((meta % len(whole)).encode() + whole)
+    ok(path, "-q", "-o", os.path.join(d, "good.vtp"))
     for flag in ("TRUE", "1"):
         path = os.path.join(d, f"zhalf-{flag}.mha")
         with open(path, "wb") as f:
