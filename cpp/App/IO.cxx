@@ -273,7 +273,8 @@ std::string SlicePatternProblem(const std::string& pattern)
 // to the header's directory unless absolute), is a regular file: a FIFO
 // made VTK's readers wait for a writer, a device (/dev/urandom) was read as
 // samples.
-void CheckNamedDataFile(const std::string& path, const std::string& what, const std::string& file)
+unsigned long long CheckNamedDataFile(
+  const std::string& path, const std::string& what, const std::string& file)
 {
   const size_t slash = path.find_last_of('/');
   const std::string full = file.empty() || file[0] == '/' || slash == std::string::npos
@@ -289,6 +290,32 @@ void CheckNamedDataFile(const std::string& path, const std::string& what, const 
     Unreadable(path, what + " names '" + file + "', which is not a regular file (VTK's reader " +
         (S_ISFIFO(st.st_mode) ? "would wait for a writer" : "would read it as samples") + ")");
   }
+  return static_cast<unsigned long long>(st.st_size);
+}
+
+// Bytes of a value of a NRRD type (its name in lower case, any of the
+// spellings NRRD allows); 0 for a name not known.
+int NrrdTypeBytes(const std::string& type)
+{
+  static const std::pair<const char*, int> types[] = { { "signed char", 1 }, { "int8", 1 },
+    { "int8_t", 1 }, { "uchar", 1 }, { "unsigned char", 1 }, { "uint8", 1 }, { "uint8_t", 1 },
+    { "short", 2 }, { "short int", 2 }, { "signed short", 2 }, { "signed short int", 2 },
+    { "int16", 2 }, { "int16_t", 2 }, { "ushort", 2 }, { "unsigned short", 2 },
+    { "unsigned short int", 2 }, { "uint16", 2 }, { "uint16_t", 2 }, { "int", 4 },
+    { "signed int", 4 }, { "int32", 4 }, { "int32_t", 4 }, { "uint", 4 }, { "unsigned int", 4 },
+    { "uint32", 4 }, { "uint32_t", 4 }, { "longlong", 8 }, { "long long", 8 },
+    { "long long int", 8 }, { "signed long long", 8 }, { "signed long long int", 8 },
+    { "int64", 8 }, { "int64_t", 8 }, { "ulonglong", 8 }, { "unsigned long long", 8 },
+    { "unsigned long long int", 8 }, { "uint64", 8 }, { "uint64_t", 8 }, { "float", 4 },
+    { "double", 8 } };
+  for (const auto& t : types)
+  {
+    if (type == t.first)
+    {
+      return t.second;
+    }
+  }
+  return 0;
 }
 
 // The data files a detached NRRD header names, as VTK 9.1's reader takes
@@ -298,12 +325,15 @@ void CheckNamedDataFile(const std::string& path, const std::string& what, const 
 // A step of 0 or less made the reader name files without end (memory grew
 // by 250 MB/s), and a range of 10^9 built as many names.
 void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
-  const std::vector<std::string>& listed, const std::vector<long long>& sizes)
+  const std::vector<std::string>& listed, const std::vector<long long>& sizes,
+  const std::string& encoding, int valueBytes)
 {
   if (dataFile.empty())
   {
     return;
   }
+  const long long slices = sizes.empty() ? 0 : sizes.back();
+  const bool gzip = encoding == "gzip" || encoding == "gz";
   const std::vector<std::string> words = Words(dataFile);
   const std::string what = "its data file field (" + dataFile + ")";
   if (words[0] == "LIST")
@@ -316,11 +346,41 @@ void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
     {
       CheckNamedDataFile(path, "its data file list", file);
     }
+    // One file a slice: fewer made VTK's reader take a name past the list
+    // (SIGSEGV), more were ignored.
+    if (listed.size() > 1 && static_cast<long long>(listed.size()) != slices)
+    {
+      Unreadable(path, what + " lists " + std::to_string(listed.size()) + " files for " +
+          std::to_string(slices) + " slices: VTK's NRRD reader reads one file a slice");
+    }
+    if (listed.size() > 1 && gzip)
+    {
+      Unreadable(path, "its gzip slice files: VTK's NRRD reader inflates the first only and "
+                       "leaves the other slices unwritten (use raw slice files, or one file)");
+    }
     return;
   }
   if (words.size() < 4)
   {
-    CheckNamedDataFile(path, "its data file field", dataFile);
+    const unsigned long long have = CheckNamedDataFile(path, "its data file field", dataFile);
+    // VTK's reader takes what a data file holds beyond the samples for a
+    // header before them (raw), or the compressed size beyond the samples'
+    // for one (gzip: incompressible data read as garbage, exit status 0),
+    // where NRRD puts the data at its start.
+    unsigned long long need = valueBytes > 0 ? static_cast<unsigned long long>(valueBytes) : 0;
+    for (long long n : sizes)
+    {
+      need = n > 0 && need <= (1ULL << 62) / static_cast<unsigned long long>(n)
+        ? need * static_cast<unsigned long long>(n)
+        : 0;
+    }
+    if (need > 0 && have > need)
+    {
+      Unreadable(path, "its data file '" + dataFile + "' holds " + std::to_string(have) +
+          " bytes, more than the " + std::to_string(need) + " its samples take" +
+          (gzip ? " uncompressed" : "") + ": VTK's NRRD reader would skip the first " +
+          std::to_string(have - need) + " as a header");
+    }
     return;
   }
   const std::string problem = SlicePatternProblem(words[0]);
@@ -338,7 +398,6 @@ void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
         ": VTK's NRRD reader would name files without end");
   }
   const long long files = last < first ? 0 : (last - first) / step + 1;
-  const long long slices = sizes.empty() ? 0 : sizes.back();
   if (files > MaxSliceFiles)
   {
     Unreadable(path, what + " names " + std::to_string(files) + " files, more than the " +
@@ -350,6 +409,11 @@ void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
         (files == 1 ? "" : "s") + " (" + std::to_string(first) + " to " + std::to_string(last) +
         " by " + std::to_string(step) + ") for " + std::to_string(slices) +
         " slices: VTK's NRRD reader reads one file a slice");
+  }
+  if (gzip && files > 1)
+  {
+    Unreadable(path, "its gzip slice files: VTK's NRRD reader inflates the first only and "
+                     "leaves the other slices unwritten (use raw slice files, or one file)");
   }
   char name[4096];
   for (long long i = first; i <= last; i += step)
@@ -405,6 +469,8 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   in.seekg(0);
   bool unterminated = false;     // the last line read had no newline
   bool sizesFirst = false;       // a sizes field before the dimension field
+  std::string encoding = "raw";  // lower case
+  int valueBytes = 0;            // of the type field's type, 0 if unknown
   std::string dataFile;          // the "data file" value, "" if absent
   bool listing = false;          // reading the files after "data file: LIST"
   std::vector<std::string> listed;
@@ -468,6 +534,11 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     if (field == "encoding")
     {
       ascii = lower == "ascii" || lower == "text" || lower == "txt";
+      encoding = lower;
+    }
+    if (field == "type")
+    {
+      valueBytes = NrrdTypeBytes(lower);
     }
     if (field == "data file" || field == "datafile")
     {
@@ -544,11 +615,12 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, "the header's sizes (" + badSizes + ") are not all positive integers");
   }
-  if (ascii && !detached)
+  if (ascii)
   {
-    Unreadable(path, "ASCII-encoded NRRD data in the header's own file, which VTK's reader "
-                     "does not read correctly: use raw or gzip encoding, or a detached header "
-                     "(.nhdr)");
+    // Attached, it read garbage; detached, characters as samples (range
+    // 48..57) and unwritten memory for values it could not parse.
+    Unreadable(path, "ASCII-encoded NRRD data, which VTK's reader does not read correctly: use "
+                     "raw or gzip encoding");
   }
   if (dimension.empty())
   {
@@ -586,7 +658,7 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
   {
     Unreadable(path, misread + "a spatial axis (space direction " + firstDirection + ")" + instead);
   }
-  CheckNrrdDataFiles(path, dataFile, listed, sizes);
+  CheckNrrdDataFiles(path, dataFile, listed, sizes, encoding, valueBytes);
   header.sizes = sizes;
   return header;
 }
@@ -2199,6 +2271,62 @@ void CheckMetaImageCompressedSize(const std::string& path)
   }
 }
 
+// The arrays of a legacy FIELD block whose "FIELD name count" line `words`
+// was just read from `header` (the file's first bytes): each must be
+// "name components tuples type" with a type the reader knows, followed by
+// its values (ASCII numbers, or binary bytes). Throws when one is not;
+// stops where the window of `header` ends.
+template <typename TypeSize>
+void CheckLegacyFieldBlock(const std::string& path, std::istringstream& header,
+  std::istringstream& words, bool binary, const TypeSize& typeSize)
+{
+  std::string name;
+  long long arrays = -1;
+  words >> name >> arrays;
+  if (arrays < 0 || arrays > (1 << 20))
+  {
+    Unreadable(path, "its FIELD block '" + name + "' declares " + std::to_string(arrays) +
+        " arrays");
+  }
+  for (long long k = 0; k < arrays; ++k)
+  {
+    std::string arrayName, type;
+    long long components = -1, tuples = -1;
+    if (!(header >> arrayName))
+    {
+      return; // past the window
+    }
+    const bool described = static_cast<bool>(header >> components >> tuples >> type);
+    if (!described || components < 1 || tuples < 0 || typeSize(type) < 0)
+    {
+      Unreadable(path, "its FIELD block '" + name + "' declares " + std::to_string(arrays) +
+          " arrays, and array " + std::to_string(k + 1) + " is not 'name components tuples "
+          "type' with a type VTK's reader knows (it crashed on such a block)");
+    }
+    const unsigned long long values =
+      static_cast<unsigned long long>(components) * static_cast<unsigned long long>(tuples);
+    if (binary)
+    {
+      header.ignore(1); // the newline after the array's line
+      header.seekg(static_cast<std::streamoff>(values * std::max(1, typeSize(type))),
+        std::ios::cur);
+      if (!header)
+      {
+        return;
+      }
+      continue;
+    }
+    std::string value;
+    for (unsigned long long v = 0; v < values; ++v)
+    {
+      if (!(header >> value))
+      {
+        return;
+      }
+    }
+  }
+}
+
 // A legacy .vtk file shorter than the samples its header declares (the
 // first POINT_DATA scalars): VTK's reader allocates and reads them all
 // first (a 4 KB file declaring 1000^3 floats took 18 s and 4 GB before it
@@ -2244,6 +2372,14 @@ void CheckLegacySize(const std::string& path)
     if (word == "POINT_DATA" || word == "CELL_DATA")
     {
       words >> count;
+      continue;
+    }
+    if (count == 0 && word == "FIELD")
+    {
+      // The dataset's field data, before the geometry: a block that does
+      // not hold the arrays it declares made VTK's reader dereference a
+      // null array (SIGSEGV).
+      CheckLegacyFieldBlock(path, header, words, binary, typeSize);
       continue;
     }
     if (count == 0)

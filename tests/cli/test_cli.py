@@ -2304,6 +2304,62 @@ def vti_tags_hidden_from_the_checks_are_found():
 
 
 @check
+def detached_nrrd_data_and_legacy_fields_vtk_misreads_are_refused():
+    """A third review under AddressSanitizer (fifty-second session): a NRRD
+    LIST naming fewer files than slices (SIGSEGV), gzip slice files (the
+    first inflated, the other slices unwritten memory), a detached file
+    holding more bytes than its samples take (VTK's reader skipped the
+    excess as a header: gzip of noise read as garbage), ASCII data in a
+    detached file (characters read as samples), and a legacy FIELD block
+    that does not hold the arrays it declares (SIGSEGV): each refused with
+    its reason, exit status 0 before; exact raw and gzip files still read."""
+    import gzip
+    d = fresh_dir("detached-nrrd")
+    out = os.path.join(d, "o.vtp")
+    rng = np.random.default_rng(7)
+    noise = rng.integers(0, 256, 16 * 16 * 10, dtype=np.uint8).tobytes()
+    smooth = bytes((k * 7) % 256 for k in range(16 * 16 * 10))
+    files = {"noise.raw": noise, "noise.raw.gz": gzip.compress(noise, 9),
+             "smooth.raw.gz": gzip.compress(smooth), "more.raw": smooth + bytes(100),
+             "text.txt": " ".join(str(b) for b in smooth).encode()}
+    for k in range(10):
+        files[f"s{k}.raw"] = smooth[k * 256:(k + 1) * 256]
+        files[f"s{k}.raw.gz"] = gzip.compress(files[f"s{k}.raw"])
+    for name, content in files.items():
+        with open(os.path.join(d, name), "wb") as f:
+            f.write(content)
+    head = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 16 16 10\nencoding: %s\ndata file: %s\n"
+    for name, enc, data, fragment in (
+            ("few.nhdr", "raw", "LIST\ns0.raw\ns1.raw", "lists 2 files for 10 slices"),
+            ("list-gz.nhdr", "gzip", "LIST\n" + "\n".join(f"s{k}.raw.gz" for k in range(10)),
+             "its gzip slice files"),
+            ("pattern-gz.nhdr", "gzip", "s%d.raw.gz 0 9 1", "its gzip slice files"),
+            ("noise-gz.nhdr", "gzip", "noise.raw.gz", "more than the 2560 its samples take"),
+            ("more.nhdr", "raw", "more.raw", "holds 2660 bytes, more than the 2560"),
+            ("text.nhdr", "ascii", "text.txt", "ASCII-encoded NRRD data")):
+        path = os.path.join(d, name)
+        with open(path, "w") as f:
+            f.write(head % (enc, data) + "\n")
+        expect_refused_in_time(path, fragment, out)
+    for name, enc, data in (("raw.nhdr", "raw", "noise.raw"), ("gz.nhdr", "gzip", "smooth.raw.gz"),
+                            ("list.nhdr", "raw",
+                             "LIST\n" + "\n".join(f"s{k}.raw" for k in range(10)))):
+        path = os.path.join(d, name)
+        with open(path, "w") as f:
+            f.write(head % (enc, data) + "\n")
+        ok(path, "-q", "-v", "100", "-o", os.path.join(d, "good.vtp"))
+    samples = " ".join(str(b) for b in smooth[:12 * 11 * 10])
+    for label, field in (("declared-two", "FIELD FieldData 2\nTIME 1 1 double\n0\n"),
+                         ("bad-type", "FIELD FieldData 1\nTIME 1 1 quaternion\n0\n")):
+        path = os.path.join(d, f"field-{label}.vtk")
+        with open(path, "w") as f:
+            f.write("# vtk DataFile Version 3.0\nvtk output\nASCII\nDATASET STRUCTURED_POINTS\n"
+                    + field + "DIMENSIONS 12 11 10\nSPACING 1 1 1\nORIGIN 0 0 0\n"
+                    "POINT_DATA 1320\nSCALARS s float\nLOOKUP_TABLE default\n" + samples + "\n")
+        expect_refused_in_time(path, "its FIELD block 'FieldData' declares", out)
+
+
+@check
 def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
     """0 vector components (dim[5]) made VTK 9.1's NIfTI reader divide by
     zero (SIGFPE), and a single-file .nii whose vox_offset lies inside the
