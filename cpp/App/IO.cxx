@@ -3001,6 +3001,16 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
       };
       for (size_t i = 0; typical > 0.0 && i < steps.size(); ++i)
       {
+        // Two slices at one position (a copy of a slice file, or a link to
+        // one): the reader took both, and the volume grew by a slice, every
+        // later one shifted.
+        if (steps[i] < 0.5 * typical)
+        {
+          Unreadable(path, "its slices '" + positions[i].second + "' and '" +
+              positions[i + 1].second + "' lie " + text(steps[i]) + " apart, where the other "
+              "slices are " + text(typical) + " apart: a slice is there twice (the series "
+              "would be read with both, a slice taller)");
+        }
         if (steps[i] > 1.5 * typical)
         {
           Unreadable(path, "its slice positions jump by " + text(steps[i]) + " between '" +

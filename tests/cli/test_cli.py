@@ -386,6 +386,13 @@ def dicom_slice_that_cannot_be_read_is_refused():
     expect_error([gap, "-o", out], "its slice positions jump by 2.2 between 'slice005.dcm' and "
                  "'slice007.dcm', where the other slices are 1.1 apart: a slice is missing",
                  outputs=[out], status=1)
+    # A slice there twice (a copy named otherwise): the reader took both,
+    # and the volume grew by a slice (a third review under AddressSanitizer,
+    # fifty-second session).
+    twice = os.path.join(d, "twice")
+    write_series(twice, samples, spacing)
+    shutil.copy(os.path.join(twice, "slice006.dcm"), os.path.join(twice, "copy of slice006.dcm"))
+    expect_error([twice, "-o", out], "a slice is there twice", outputs=[out], status=1)
     # Slice files without an extension: the same.
     bare = os.path.join(d, "bare")
     write_series(bare, samples, spacing, prefix="IM", suffix="")
