@@ -688,22 +688,27 @@ def error_corrupt_inputs():
     head = data[: data.index(b"LOOKUP_TABLE default\n") + 21]
     head = re.sub(rb"DIMENSIONS \d+ \d+ \d+", b"DIMENSIONS 1000 1000 1000", head)
     head = re.sub(rb"POINT_DATA \d+", b"POINT_DATA 1000000000", head)
-    # So is any first attribute: vectors (11.7 GB and 40 s), a type in
-    # capitals (which the reader takes) or a FIELD array were not sized
-    # until the fifty-second session.
+    # So is any attribute: vectors (11.7 GB and 40 s), a type in capitals
+    # (which the reader takes), a FIELD array, one after a real attribute
+    # (4.4 GB), a FIELD of 2e9 arrays (16 GB, over a minute) and a lookup
+    # table of 2e9 entries were not sized until the fifty-second session.
     attribute = re.search(rb"SCALARS \S+ float( 1)?\nLOOKUP_TABLE default\n", head)
     expect(attribute is not None, "the legacy writer's SCALARS line")
     for label, line, fragment in (
             ("scalars", attribute.group(0),
-             "fewer than the 4000000000 that the 1000000000 float values of its first "
-             "attribute (SCALARS) need"),
+             "fewer than the 4000000000 that the 1000000000 float values of its attribute "
+             "SCALARS"),
             ("capitals", b"SCALARS s FLOAT\nLOOKUP_TABLE default\n",
-             "1000000000 FLOAT values of its first attribute (SCALARS)"),
+             "1000000000 FLOAT values of its attribute SCALARS 's'"),
             ("vectors", b"VECTORS v float\n",
-             "fewer than the 12000000000 that the 3000000000 float values of its first "
-             "attribute (VECTORS) need"),
+             "fewer than the 12000000000 that the 3000000000 float values of its attribute "
+             "VECTORS 'v' need"),
             ("field", b"FIELD f 1\nv 1 1000000000 float\n",
-             "1000000000 float values of its first attribute (FIELD)")):
+             "1000000000 float values of its attribute FIELD"),
+            ("field-count", b"FIELD f 2000000000\nv 1 1 float\n",
+             "declares 2000000000 arrays, more than its"),
+            ("second", b"FIELD f 1\nv 1 1 float\n\0\0\0\0\nVECTORS w float\n",
+             "values of its attribute VECTORS 'w'")):
         huge = os.path.join(d, f"huge-{label}.vtk")
         with open(huge, "wb") as f:
             f.write(head.replace(attribute.group(0), line) + b"\0" * 4000)
@@ -713,6 +718,14 @@ def error_corrupt_inputs():
         except Failure as e:
             raise Failure(f"{label}: {e}")
         expect(time.monotonic() - started < 60, f"{label}: read before it was refused")
+    lookup = os.path.join(d, "huge-lookup.vtk")
+    with open(lookup, "w") as f:
+        f.write("# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\n"
+                "DIMENSIONS 2 2 2\nSPACING 1 1 1\nORIGIN 0 0 0\nPOINT_DATA 8\nSCALARS s float\n"
+                "LOOKUP_TABLE t 2000000000\n0 1 2 3 4 5 6 7\n")
+    expect_error([lookup, "-o", os.path.join(d, "o.vtp")],
+                 "the 8000000000 ASCII float values of its attribute LOOKUP_TABLE 't' need",
+                 status=1)
     # Empty file.
     path = os.path.join(d, "empty.vti")
     open(path, "w").close()
