@@ -269,6 +269,16 @@ std::string SlicePatternProblem(const std::string& pattern)
   return std::string();
 }
 
+// The path of `file`, a data file the header `path` names: relative to
+// the header's directory unless absolute (as VTK's readers take it).
+std::string DataFilePath(const std::string& path, const std::string& file)
+{
+  const size_t slash = path.find_last_of('/');
+  return file.empty() || file[0] == '/' || slash == std::string::npos
+    ? file
+    : path.substr(0, slash + 1) + file;
+}
+
 // Throws unless `file`, a data file that the header `path` names (relative
 // to the header's directory unless absolute), is a regular file: a FIFO
 // made VTK's readers wait for a writer, a device (/dev/urandom) was read as
@@ -276,10 +286,7 @@ std::string SlicePatternProblem(const std::string& pattern)
 unsigned long long CheckNamedDataFile(
   const std::string& path, const std::string& what, const std::string& file)
 {
-  const size_t slash = path.find_last_of('/');
-  const std::string full = file.empty() || file[0] == '/' || slash == std::string::npos
-    ? file
-    : path.substr(0, slash + 1) + file;
+  const std::string full = DataFilePath(path, file);
   struct stat st;
   if (stat(full.c_str(), &st) != 0)
   {
@@ -2034,8 +2041,6 @@ void CheckMetaImageFileList(const std::string& path, const std::vector<long long
   }
   std::ifstream in(path, std::ios::binary);
   in.seekg(static_cast<std::streamoff>(listOffset));
-  const size_t slash = path.find_last_of('/');
-  const std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
   std::string line;
   unsigned long long listed = 0;
   for (; listed < files && std::getline(in, line) && !in.eof(); ++listed)
@@ -2054,7 +2059,7 @@ void CheckMetaImageFileList(const std::string& path, const std::vector<long long
       Unreadable(path, number + " is empty (VTK's MetaImage reader would read before its "
                                 "start)");
     }
-    const std::string file = line[0] == '/' || dir.empty() ? line : dir + line;
+    const std::string file = DataFilePath(path, line);
     struct stat st;
     if (stat(file.c_str(), &st) != 0 || !S_ISREG(st.st_mode))
     {
@@ -2215,9 +2220,7 @@ void CheckMetaImageCompressedSize(const std::string& path)
     want *= static_cast<unsigned long long>(n);
   }
   const bool local = dataFile == "LOCAL";
-  const size_t slash = path.find_last_of('/');
-  const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash);
-  const std::string file = local ? path : (dataFile[0] == '/' ? dataFile : dir + "/" + dataFile);
+  const std::string file = local ? path : DataFilePath(path, dataFile);
   std::ifstream in(file, std::ios::binary);
   if (!in)
   {
