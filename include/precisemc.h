@@ -974,8 +974,10 @@ void pmc_options_free(struct pmc_options *options);
 
 /**
  * Sets the largest allowed distance, in cell-edge units of index space,
- * between a tested sample point and the ideal (trilinear) surface.
- * Default 0.01. `0` turns refinement off (plain Marching Cubes).
+ * between a tested sample point and the isosurface of the reconstruction
+ * filter (`pmc_options_set_reconstruction`; by default the trilinear
+ * interpolant's, `S_K`). Default 0.01. `0` turns refinement off (plain
+ * Marching Cubes).
  *
  * Returns `PMC_STATUS_INVALID_ARGUMENT` (options unchanged) unless
  * `epsilon` is finite and >= 0; `PMC_STATUS_NULL_ARGUMENT` for `NULL`

@@ -17,7 +17,9 @@
 /// their own panics, so any scheduling is correct, serial included.
 pub trait Executor: Sync {
     /// How many tasks may run at once (the host's worker count, at least
-    /// 1): the volume is cut for that many workers. `0` counts as 1.
+    /// 1): the volume is cut for that many workers. `0` counts as 1, and a
+    /// value above [`crate::MAX_THREADS`] as that limit. (The C API's
+    /// `pmc_options_set_executor` refuses such values instead.)
     fn concurrency(&self) -> usize;
 
     /// Calls `task(i)` once for every `i` in `0..n`, in any order, on any

@@ -705,6 +705,44 @@ void vtkPreciseMarchingCubes::ResetStatistics()
 }
 
 //------------------------------------------------------------------------------
+int vtkPreciseMarchingCubes::ClampSetting(const char* name, int value, int lo, int hi)
+{
+  if (value >= lo && value <= hi)
+  {
+    return value;
+  }
+  const int clamped = value < lo ? lo : hi;
+  vtkWarningMacro(<< name << " " << value << " is outside " << lo << ".." << hi << ": using "
+                  << clamped);
+  return clamped;
+}
+
+// The setters of vtkSetClampMacro, but not silent: an out-of-range value
+// warns (see ClampSetting). Modified() only when the value changes, as
+// there.
+#define PMC_CLAMPED_SETTER(name, lo, hi)                                                           \
+  void vtkPreciseMarchingCubes::Set##name(int value)                                               \
+  {                                                                                                \
+    const int clamped = this->ClampSetting(#name, value, lo, hi);                                  \
+    if (this->name != clamped)                                                                     \
+    {                                                                                              \
+      this->name = clamped;                                                                        \
+      this->Modified();                                                                            \
+    }                                                                                              \
+  }
+
+PMC_CLAMPED_SETTER(OutputPointsPrecision, SINGLE_PRECISION, DEFAULT_PRECISION)
+PMC_CLAMPED_SETTER(MaxLevel, 0, 10)
+PMC_CLAMPED_SETTER(Rule, RULE_A, RULE_B)
+PMC_CLAMPED_SETTER(
+  ReconstructionFilter, RECONSTRUCTION_TRILINEAR, RECONSTRUCTION_BSPLINE_INTERPOLATING)
+PMC_CLAMPED_SETTER(Topology, TOPOLOGY_TRILINEAR, TOPOLOGY_CLASSIC)
+PMC_CLAMPED_SETTER(NormalMode, NORMALS_GRADIENT, NORMALS_CENTRAL_DIFFERENCE)
+PMC_CLAMPED_SETTER(NumberOfThreads, 0, 4096)
+
+#undef PMC_CLAMPED_SETTER
+
+//------------------------------------------------------------------------------
 const char* vtkPreciseMarchingCubes::GetRuleAsString()
 {
   switch (this->Rule)

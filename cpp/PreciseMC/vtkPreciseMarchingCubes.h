@@ -276,7 +276,8 @@ public:
 
   /**
    * Set a particular contour value at contour number i. The index i ranges
-   * between 0<=i<NumberOfContours.
+   * between 0<=i<NumberOfContours. A new filter has one contour value,
+   * 0.0 (as vtkMarchingCubes).
    */
   void SetValue(int i, double value) { this->ContourValues->SetValue(i, value); }
 
@@ -356,9 +357,13 @@ public:
    * with unit spacing), DEFAULT_PRECISION gives double points too and
    * SINGLE_PRECISION warns. The largest world coordinate is that of the
    * whole volume (the pipeline's whole extent), so that every piece of a
-   * distributed run makes the serial run's choice.
+   * distributed run makes the serial run's choice. Default
+   * DEFAULT_PRECISION; a value outside SINGLE_PRECISION..DEFAULT_PRECISION
+   * is clamped into it, with a warning.
    */
-  vtkSetClampMacro(OutputPointsPrecision, int, SINGLE_PRECISION, DEFAULT_PRECISION);
+  virtual void SetOutputPointsPrecision(int value);
+  virtual int GetOutputPointsPrecisionMinValue() { return SINGLE_PRECISION; }
+  virtual int GetOutputPointsPrecisionMaxValue() { return DEFAULT_PRECISION; }
   vtkGetMacro(OutputPointsPrecision, int);
   ///@}
 
@@ -378,9 +383,12 @@ public:
   ///@{
   /**
    * Set/Get the maximum refinement level (0 = plain Marching Cubes, at
-   * most 10). Default 5.
+   * most 10). Default 5. A value outside 0..10 is clamped into it, with a
+   * warning (the C API and the command-line tool refuse it).
    */
-  vtkSetClampMacro(MaxLevel, int, 0, 10);
+  virtual void SetMaxLevel(int value);
+  virtual int GetMaxLevelMinValue() { return 0; }
+  virtual int GetMaxLevelMaxValue() { return 10; }
   vtkGetMacro(MaxLevel, int);
   ///@}
 
@@ -388,9 +396,13 @@ public:
   /**
    * Set/Get the refinement rule: RULE_A (edge midpoints only), RULE_A1
    * (then the centroid when no edge splits; the default), RULE_A2 (then a
-   * displaced centroid) or RULE_B (midpoints and centroid at once).
+   * displaced centroid) or RULE_B (midpoints and centroid at once). A
+   * value outside RULE_A..RULE_B (0..3) is clamped into it, with a
+   * warning.
    */
-  vtkSetClampMacro(Rule, int, RULE_A, RULE_B);
+  virtual void SetRule(int value);
+  virtual int GetRuleMinValue() { return RULE_A; }
+  virtual int GetRuleMaxValue() { return RULE_B; }
   vtkGetMacro(Rule, int);
   void SetRuleToA() { this->SetRule(RULE_A); }
   void SetRuleToA1() { this->SetRule(RULE_A1); }
@@ -425,11 +437,12 @@ public:
    * request two ghost levels of input (BSplineInterpolating, whose
    * prefilter couples all samples of a line, requests the whole volume on
    * every piece) and contour only the piece's own cells: the union of the
-   * pieces is identical to the serial surface. Values outside 0..3 are
-   * clamped.
+   * pieces is identical to the serial surface. A value outside 0..3 is
+   * clamped into it, with a warning.
    */
-  vtkSetClampMacro(
-    ReconstructionFilter, int, RECONSTRUCTION_TRILINEAR, RECONSTRUCTION_BSPLINE_INTERPOLATING);
+  virtual void SetReconstructionFilter(int value);
+  virtual int GetReconstructionFilterMinValue() { return RECONSTRUCTION_TRILINEAR; }
+  virtual int GetReconstructionFilterMaxValue() { return RECONSTRUCTION_BSPLINE_INTERPOLATING; }
   vtkGetMacro(ReconstructionFilter, int);
   void SetReconstructionFilterToTrilinear()
   {
@@ -458,9 +471,12 @@ public:
    * tunnels included) or TOPOLOGY_CLASSIC (the case table of
    * vtkMarchingCubes; refined, a cell whose table patch joins the
    * crossings otherwise than the trilinear interpolant is split on its
-   * faces' edges only).
+   * faces' edges only). A value outside 0..1 is clamped into it, with a
+   * warning.
    */
-  vtkSetClampMacro(Topology, int, TOPOLOGY_TRILINEAR, TOPOLOGY_CLASSIC);
+  virtual void SetTopology(int value);
+  virtual int GetTopologyMinValue() { return TOPOLOGY_TRILINEAR; }
+  virtual int GetTopologyMaxValue() { return TOPOLOGY_CLASSIC; }
   vtkGetMacro(Topology, int);
   void SetTopologyToTrilinear() { this->SetTopology(TOPOLOGY_TRILINEAR); }
   void SetTopologyToClassic() { this->SetTopology(TOPOLOGY_CLASSIC); }
@@ -474,9 +490,15 @@ public:
    * NORMALS_GRADIENT (the exact gradient of the trilinear interpolant at
    * the point; the default) or NORMALS_CENTRAL_DIFFERENCE (central
    * differences at the grid points interpolated to the point, like
-   * vtkMarchingCubes).
+   * vtkMarchingCubes). A value outside NORMALS_GRADIENT..
+   * NORMALS_CENTRAL_DIFFERENCE (1..2) is clamped into it, with a warning.
+   * (There is no "none" mode here: ComputeNormals and ComputeGradients
+   * off compute neither; the C API's PMC_NORMALS_NONE is 0, which this
+   * setter turns into NORMALS_GRADIENT.)
    */
-  vtkSetClampMacro(NormalMode, int, NORMALS_GRADIENT, NORMALS_CENTRAL_DIFFERENCE);
+  virtual void SetNormalMode(int value);
+  virtual int GetNormalModeMinValue() { return NORMALS_GRADIENT; }
+  virtual int GetNormalModeMaxValue() { return NORMALS_CENTRAL_DIFFERENCE; }
   vtkGetMacro(NormalMode, int);
   void SetNormalModeToGradient() { this->SetNormalMode(NORMALS_GRADIENT); }
   void SetNormalModeToCentralDifference() { this->SetNormalMode(NORMALS_CENTRAL_DIFFERENCE); }
@@ -506,9 +528,12 @@ public:
    * backend and thread count the application set for it: its points from
    * 65 536 points, its triangles from 65 536 triangles. The output does
    * not depend on it. At most 4096 (the library's PMC_MAX_THREADS): a
-   * larger value is clamped to it.
+   * larger value is clamped to it, a negative one to 0 (all cores), with
+   * a warning (the C API and the command-line tool refuse them).
    */
-  vtkSetClampMacro(NumberOfThreads, int, 0, 4096);
+  virtual void SetNumberOfThreads(int value);
+  virtual int GetNumberOfThreadsMinValue() { return 0; }
+  virtual int GetNumberOfThreadsMaxValue() { return 4096; }
   vtkGetMacro(NumberOfThreads, int);
   ///@}
 
@@ -607,6 +632,10 @@ protected:
   int FillInputPortInformation(int port, vtkInformation* info) override;
 
   void ResetStatistics();
+
+  // `value` clamped into [lo, hi]; warns, naming the setting, when it was
+  // outside (vtkSetClampMacro's clamp, which is silent).
+  int ClampSetting(const char* name, int value, int lo, int hi);
 
   vtkContourValues* ContourValues;
   vtkTypeBool ComputeNormals;

@@ -603,14 +603,63 @@ def test_cells_float_cannot_tell_apart_give_double_points_or_a_warning():
 
 def test_thread_count_is_clamped_to_the_library_limit():
     f = vtkPreciseMarchingCubes()
+    warned = ErrorObserver(f)
     f.SetNumberOfThreads(100000)
     assert f.GetNumberOfThreads() == 4096
+    assert said(warned.warnings) == ["NumberOfThreads 100000 is outside 0..4096: using 4096"]
     f.SetInputData(wavelet(8))
     f.SetValue(0, 150.0)
     errors = ErrorObserver(f)
     f.Update()
     assert not errors.errors, errors.errors
     assert f.GetOutput().GetNumberOfPolys() > 100
+
+
+def said(messages):
+    """The text of VTK messages, without "Warning: In file, line n" and the object."""
+    return [m.split("): ", 1)[1].strip() for m in messages]
+
+
+# Each setting with a range: (name, lowest, highest, default).
+RANGED_SETTINGS = [
+    ("MaxLevel", 0, 10, 5),
+    ("Rule", 0, 3, 1),
+    ("ReconstructionFilter", 0, 3, 0),
+    ("Topology", 0, 1, 0),
+    ("NormalMode", 1, 2, 1),
+    ("NumberOfThreads", 0, 4096, 0),
+    ("OutputPointsPrecision", 0, 2, 2),
+]
+
+
+@pytest.mark.parametrize("name,lo,hi,default", RANGED_SETTINGS)
+def test_a_setting_out_of_its_range_is_clamped_with_a_warning(name, lo, hi, default):
+    # The C API and the command-line tool refuse such values; the filter
+    # clamps them as vtkSetClampMacro does, but says so (it was silent: a
+    # MaxLevel of 11 ran at 10, and ParaView's property kept showing 11).
+    f = vtkPreciseMarchingCubes()
+    warned = ErrorObserver(f)
+    get, set_ = getattr(f, "Get" + name), getattr(f, "Set" + name)
+    assert get() == default
+    assert (getattr(f, f"Get{name}MinValue")(), getattr(f, f"Get{name}MaxValue")()) == (lo, hi)
+    for value in range(lo, hi + 1) if hi - lo < 20 else (lo, lo + 1, hi - 1, hi):
+        set_(value)
+        assert get() == value
+    assert not warned.warnings and not warned.errors
+    mtime = f.GetMTime()
+    set_(hi + 1)
+    assert get() == hi and f.GetMTime() == mtime  # unchanged: not modified
+    set_(lo)
+    set_(lo - 5)
+    assert get() == lo
+    set_(2**31 - 1)
+    assert get() == hi and f.GetMTime() > mtime
+    assert said(warned.warnings) == [
+        f"{name} {hi + 1} is outside {lo}..{hi}: using {hi}",
+        f"{name} {lo - 5} is outside {lo}..{hi}: using {lo}",
+        f"{name} {2**31 - 1} is outside {lo}..{hi}: using {hi}",
+    ]
+    assert not warned.errors
 
 
 def test_max_triangles_on_a_piece_warns_of_cracks():
@@ -785,9 +834,12 @@ def test_reconstruction_filter_property():
         f.SetReconstructionFilter(0)
         f.SetReconstructionFilter(value)
         assert f.GetReconstructionFilterAsString() == name
-    # Out of range values are clamped, and a set marks the filter modified.
+    # Out of range values are clamped, with a warning, and a set marks the
+    # filter modified.
+    warned = ErrorObserver(f)
     f.SetReconstructionFilter(-7)
     assert f.GetReconstructionFilter() == 0
+    assert said(warned.warnings) == ["ReconstructionFilter -7 is outside 0..3: using 0"]
     mtime = f.GetMTime()
     f.SetReconstructionFilter(99)
     assert f.GetReconstructionFilter() == 3
