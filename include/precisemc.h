@@ -26,6 +26,18 @@
 #define PMC_VERSION_STRING "0.2.0"
 
 /**
+ * Highest value accepted by `pmc_measure_options_set_density`.
+ */
+#define PMC_MAX_MEASURE_DENSITY 1024
+
+/**
+ * Smallest absolute tolerance accepted by
+ * `pmc_measure_options_set_tolerance`, in cell units (1e-8): below it
+ * the search's cost grows past hours for a mesh.
+ */
+#define PMC_MIN_MEASURE_TOLERANCE 1e-8
+
+/**
  * Highest value accepted by `pmc_options_set_max_level`.
  */
 #define PMC_MAX_LEVEL_LIMIT 10
@@ -284,6 +296,15 @@ typedef enum pmc_reconstruction pmc_reconstruction;
 typedef uint32_t pmc_reconstruction;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+
+/**
+ * Settings of the accuracy measure (opaque). Create with
+ * `pmc_measure_options_new`, change with the `pmc_measure_options_set_*`
+ * functions, pass to `pmc_measure`, release with
+ * `pmc_measure_options_free`. May be shared by concurrent `pmc_measure`
+ * calls as long as it is not modified or freed meanwhile.
+ */
+typedef struct pmc_measure_options pmc_measure_options;
 
 /**
  * An extracted triangle mesh (opaque), owned by the caller from a
@@ -737,8 +758,9 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * made. Uses all cores, on the extraction's helper threads beside the
  * calling thread (where a limit on threads lets only some start, those,
  * the calling thread at least); the result does not depend on their
- * number. The calling thread needs about 40 KiB of stack: give it at
- * least 256 KiB, as for `pmc_extract`.
+ * number (`pmc_measure` takes settings with a thread count and the
+ * tolerances). The calling thread needs about 40 KiB of stack: give it
+ * at least 256 KiB, as for `pmc_extract`.
  *
  * # Safety
  *
@@ -748,6 +770,91 @@ pmc_status pmc_extract(const struct pmc_volume *volume, double isovalue, const s
  * `NULL` or valid for reading and writing its `struct_size` bytes.
  */
 pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue, const double *points, uint64_t point_count, const int64_t *triangles, uint64_t triangle_count, uint32_t density, struct pmc_distance *out);
+
+/**
+ * `pmc_measure_distance` with the settings of `options` (`NULL`: the
+ * defaults, those of `pmc_measure_options_new`): the density, the
+ * tolerances each distance is certified to and the number of threads
+ * (see the `pmc_measure_options_set_*` functions). Arguments, results
+ * and errors otherwise as there.
+ *
+ * # Safety
+ *
+ * As for `pmc_measure_distance`; `options` must be `NULL` or a live
+ * handle from `pmc_measure_options_new`, not modified during the call.
+ */
+pmc_status pmc_measure(const struct pmc_volume *volume, double isovalue, const double *points, uint64_t point_count, const int64_t *triangles, uint64_t triangle_count, const struct pmc_measure_options *options, struct pmc_distance *out);
+
+/**
+ * Creates measure settings with the defaults: density 4, absolute
+ * tolerance 1e-5 cells, relative tolerance 0.02, all cores.
+ *
+ * Returns a new handle owned by the caller, to be released with
+ * `pmc_measure_options_free`; `NULL` only if an internal error occurred.
+ */
+struct pmc_measure_options *pmc_measure_options_new(void);
+
+/**
+ * Releases settings created by `pmc_measure_options_new`. `NULL` is
+ * accepted and ignored.
+ *
+ * # Safety
+ *
+ * `options` must be `NULL` or a live handle from
+ * `pmc_measure_options_new`, not used by another thread during the call
+ * nor afterwards.
+ */
+void pmc_measure_options_free(struct pmc_measure_options *options);
+
+/**
+ * Sets the subdivisions of each triangle edge for the barycentric sample
+ * grid: `(density + 1)(density + 2) / 2` sample points per triangle (1:
+ * the vertices only). Default 4.
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (settings unchanged) unless
+ * `density` is in `1..=PMC_MAX_MEASURE_DENSITY`;
+ * `PMC_STATUS_NULL_ARGUMENT` for `NULL` settings.
+ *
+ * # Safety
+ *
+ * `options` must be `NULL` or a live handle from
+ * `pmc_measure_options_new`, not used concurrently by another thread.
+ */
+pmc_status pmc_measure_options_set_density(struct pmc_measure_options *options, uint32_t density);
+
+/**
+ * Sets how closely each sample's distance is certified: to within
+ * `absolute + relative * d` for a distance `d`, `absolute` in cell units.
+ * Defaults 1e-5 and 0.02. Tighter tolerances cost more: several times
+ * for every decade of `absolute` below the default, and with `relative`
+ * 0 a sample's search may stop at its box limit where the surface curves
+ * around it (see `precisemc::accuracy::MeasureOptions`).
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (settings unchanged) unless
+ * `absolute` is finite and at least `PMC_MIN_MEASURE_TOLERANCE` and
+ * `relative` lies in `[0, 1)`; `PMC_STATUS_NULL_ARGUMENT` for `NULL`
+ * settings.
+ *
+ * # Safety
+ *
+ * As for `pmc_measure_options_set_density`.
+ */
+pmc_status pmc_measure_options_set_tolerance(struct pmc_measure_options *options, double absolute, double relative);
+
+/**
+ * Sets the number of threads measuring; `0` (the default) uses all
+ * cores. The calling thread works beside the extraction's helper threads
+ * (see `pmc_options_set_threads`). The result is identical for any
+ * value.
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (settings unchanged) above
+ * `PMC_MAX_THREADS`; `PMC_STATUS_NULL_ARGUMENT` for `NULL` settings.
+ *
+ * # Safety
+ *
+ * As for `pmc_measure_options_set_density`.
+ */
+pmc_status pmc_measure_options_set_threads(struct pmc_measure_options *options, uint32_t threads);
 
 /**
  * Frees the buffers the library keeps between extractions for reuse and

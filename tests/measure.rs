@@ -853,3 +853,146 @@ fn a_tight_absolute_tolerance_stays_bounded() {
     );
     assert!((bounded.mean - certified.mean).abs() <= 0.01 * certified.mean + 1e-6);
 }
+
+/// `pmc_measure` with settings from `pmc_measure_options_*` measures as
+/// Rust's `measure` with the same `MeasureOptions` (unit spacing and a
+/// zero origin: the C side's world points are the index points exactly,
+/// so to the last bit); `NULL` settings are the defaults of
+/// `pmc_measure_distance`; the thread count does not change the result;
+/// a refused value leaves the settings as they were.
+#[test]
+fn c_measure_options_are_those_of_rust() {
+    use precisemc::ffi::{
+        pmc_measure, pmc_measure_options, pmc_measure_options_free, pmc_measure_options_new,
+        pmc_measure_options_set_density, pmc_measure_options_set_threads,
+        pmc_measure_options_set_tolerance,
+    };
+    let dims = [12, 10, 9];
+    let values = blobs(dims, 3, 11);
+    let vol = Volume::new(&values, dims_u64(dims));
+    let mesh = extract(&vol, 0.0, &Options::marching_cubes(Topology::Trilinear)).unwrap();
+    assert!(mesh.triangles.len() > 100);
+    let cv = c_volume(&values, dims, [0.0; 3], [1.0; 3]);
+    let (pts, tris) = c_mesh(&mesh);
+    let c = |o: *const pmc_measure_options| {
+        let mut out = pmc_distance::default();
+        let status = unsafe {
+            pmc_measure(
+                &cv,
+                0.0,
+                pts.as_ptr(),
+                mesh.points.len() as u64,
+                tris.as_ptr(),
+                mesh.triangles.len() as u64,
+                o,
+                &mut out,
+            )
+        };
+        assert_eq!(status, PmcStatus::Ok, "{}", last_error());
+        out
+    };
+    let rust = |o: &MeasureOptions| {
+        let d = measure(&vol, 0.0, &mesh.index_points, &mesh.triangles, o).unwrap();
+        pmc_distance {
+            max: d.max,
+            mean: d.mean,
+            rms: d.rms,
+            samples: d.samples,
+            unresolved: d.unresolved,
+            ..pmc_distance::default()
+        }
+    };
+    let defaults = MeasureOptions::default();
+    let mut plain = pmc_distance::default();
+    let status = unsafe {
+        pmc_measure_distance(
+            &cv,
+            0.0,
+            pts.as_ptr(),
+            mesh.points.len() as u64,
+            tris.as_ptr(),
+            mesh.triangles.len() as u64,
+            0,
+            &mut plain,
+        )
+    };
+    assert_eq!(status, PmcStatus::Ok);
+    assert_eq!(c(std::ptr::null()), plain);
+    assert_eq!(plain, rust(&defaults));
+
+    let o = pmc_measure_options_new();
+    assert!(!o.is_null());
+    assert_eq!(c(o), plain, "a new handle holds the defaults");
+    let other = MeasureOptions {
+        density: 7,
+        tolerance: 1e-3,
+        relative_tolerance: 0.5,
+        threads: 1,
+    };
+    // These settings change the result: what follows shows each is passed on.
+    assert_ne!(rust(&other).samples, plain.samples);
+    let loose = rust(&MeasureOptions {
+        density: 4,
+        ..other.clone()
+    });
+    assert_ne!(
+        (loose.max, loose.mean, loose.rms),
+        (plain.max, plain.mean, plain.rms)
+    );
+    unsafe {
+        assert_eq!(pmc_measure_options_set_density(o, 7), PmcStatus::Ok);
+        assert_eq!(
+            pmc_measure_options_set_tolerance(o, 1e-3, 0.5),
+            PmcStatus::Ok
+        );
+        assert_eq!(pmc_measure_options_set_threads(o, 1), PmcStatus::Ok);
+    }
+    let want = rust(&other);
+    assert_eq!(c(o), want);
+    for threads in [0, 2, 3] {
+        assert_eq!(
+            unsafe { pmc_measure_options_set_threads(o, threads) },
+            PmcStatus::Ok
+        );
+        assert_eq!(c(o), want, "{threads} threads");
+    }
+    // Refused values: the status, a message, the settings unchanged.
+    let refused = |status: PmcStatus, words: &str| {
+        assert_eq!(status, PmcStatus::InvalidArgument);
+        let msg = last_error();
+        assert!(msg.contains(words), "{msg}");
+    };
+    unsafe {
+        refused(pmc_measure_options_set_density(o, 0), "density 0");
+        refused(pmc_measure_options_set_density(o, 1025), "density 1025");
+        refused(pmc_measure_options_set_threads(o, 4097), "4097 threads");
+        for (abs, rel, words) in [
+            (1e-9, 0.0, "tolerance 1e-9"),
+            (f64::NAN, 0.0, "tolerance NaN"),
+            (f64::INFINITY, 0.0, "tolerance inf"),
+            (1e-5, 1.0, "relative measure tolerance 1"),
+            (1e-5, -0.1, "relative measure tolerance -0.1"),
+            (1e-5, f64::NAN, "relative measure tolerance NaN"),
+        ] {
+            refused(pmc_measure_options_set_tolerance(o, abs, rel), words);
+        }
+    }
+    assert_eq!(c(o), want, "refused values change nothing");
+    let null = std::ptr::null_mut();
+    unsafe {
+        assert_eq!(
+            pmc_measure_options_set_density(null, 4),
+            PmcStatus::NullArgument
+        );
+        assert_eq!(
+            pmc_measure_options_set_threads(null, 1),
+            PmcStatus::NullArgument
+        );
+        assert_eq!(
+            pmc_measure_options_set_tolerance(null, 1e-5, 0.02),
+            PmcStatus::NullArgument
+        );
+        pmc_measure_options_free(o);
+        pmc_measure_options_free(null);
+    }
+}

@@ -1,6 +1,8 @@
-//! `pmc_measure_distance`: the independent accuracy measure over C.
+//! `pmc_measure_distance` and `pmc_measure`: the independent accuracy
+//! measure over C.
 
 use super::extract::failure;
+use super::measure_options::{pmc_measure_options, settings};
 use super::panic::{status_boundary, Failure};
 use super::status::PmcStatus;
 use super::struct_size::{self, write_fields};
@@ -99,8 +101,9 @@ unsafe fn write(out: *mut pmc_distance, d: pmc_distance) {
 /// made. Uses all cores, on the extraction's helper threads beside the
 /// calling thread (where a limit on threads lets only some start, those,
 /// the calling thread at least); the result does not depend on their
-/// number. The calling thread needs about 40 KiB of stack: give it at
-/// least 256 KiB, as for `pmc_extract`.
+/// number (`pmc_measure` takes settings with a thread count and the
+/// tolerances). The calling thread needs about 40 KiB of stack: give it
+/// at least 256 KiB, as for `pmc_extract`.
 ///
 /// # Safety
 ///
@@ -117,6 +120,79 @@ pub unsafe extern "C" fn pmc_measure_distance(
     triangles: *const i64,
     triangle_count: u64,
     density: u32,
+    out: *mut pmc_distance,
+) -> PmcStatus {
+    let options = MeasureOptions {
+        density: if density == 0 { 4 } else { density },
+        ..MeasureOptions::default()
+    };
+    // SAFETY: forwarded contract.
+    unsafe {
+        measure_into(
+            volume,
+            isovalue,
+            points,
+            point_count,
+            triangles,
+            triangle_count,
+            options,
+            out,
+        )
+    }
+}
+
+/// `pmc_measure_distance` with the settings of `options` (`NULL`: the
+/// defaults, those of `pmc_measure_options_new`): the density, the
+/// tolerances each distance is certified to and the number of threads
+/// (see the `pmc_measure_options_set_*` functions). Arguments, results
+/// and errors otherwise as there.
+///
+/// # Safety
+///
+/// As for `pmc_measure_distance`; `options` must be `NULL` or a live
+/// handle from `pmc_measure_options_new`, not modified during the call.
+#[no_mangle]
+pub unsafe extern "C" fn pmc_measure(
+    volume: *const pmc_volume,
+    isovalue: f64,
+    points: *const f64,
+    point_count: u64,
+    triangles: *const i64,
+    triangle_count: u64,
+    options: *const pmc_measure_options,
+    out: *mut pmc_distance,
+) -> PmcStatus {
+    // SAFETY: forwarded contract.
+    let options = unsafe { settings(options) };
+    // SAFETY: forwarded contract.
+    unsafe {
+        measure_into(
+            volume,
+            isovalue,
+            points,
+            point_count,
+            triangles,
+            triangle_count,
+            options,
+            out,
+        )
+    }
+}
+
+/// The body of `pmc_measure_distance` and `pmc_measure`.
+///
+/// # Safety
+///
+/// As for `pmc_measure_distance`.
+#[allow(clippy::too_many_arguments)]
+unsafe fn measure_into(
+    volume: *const pmc_volume,
+    isovalue: f64,
+    points: *const f64,
+    point_count: u64,
+    triangles: *const i64,
+    triangle_count: u64,
+    options: MeasureOptions,
     out: *mut pmc_distance,
 ) -> PmcStatus {
     status_boundary(|| {
@@ -179,10 +255,6 @@ pub unsafe extern "C" fn pmc_measure_distance(
             }
             tris.push([t[0] as u64, t[1] as u64, t[2] as u64]);
         }
-        let options = MeasureOptions {
-            density: if density == 0 { 4 } else { density },
-            ..MeasureOptions::default()
-        };
         let d = measure(&volume, isovalue, &index_points, &tris, &options).map_err(failure)?;
         // SAFETY: as above.
         unsafe {

@@ -368,6 +368,75 @@ static void test_last_error_message(void) {
     pmc_options_free(o);
 }
 
+/* Measure settings: the setters refuse what the library cannot use (with
+ * a message, the settings unchanged), and pmc_measure with them gives
+ * the samples they ask for; NULL settings are pmc_measure_distance's. */
+static void test_measure_options(void) {
+    pmc_volume v = make_sphere(12, PMC_SCALAR_TYPE_F64, 1.0);
+    pmc_options *eo = pmc_options_new();
+    pmc_measure_options *o = pmc_measure_options_new();
+    pmc_mesh *m = NULL;
+    pmc_distance plain, with_null, dense, dense2;
+    uint64_t np, nt;
+    CHECK(o != NULL && eo != NULL);
+    CHECK_STATUS(pmc_options_set_epsilon(eo, 0.0), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_extract(&v, 3.5, eo, &m), PMC_STATUS_OK);
+    np = pmc_mesh_point_count(m);
+    nt = pmc_mesh_triangle_count(m);
+    CHECK(nt > 50);
+    memset(&plain, 0, sizeof plain);
+    plain.struct_size = sizeof plain;
+    with_null = dense = dense2 = plain;
+    CHECK_STATUS(pmc_measure_distance(&v, 3.5, pmc_mesh_points(m), np, pmc_mesh_triangles(m), nt,
+                                      0, &plain),
+                 PMC_STATUS_OK);
+    CHECK_STATUS(pmc_measure(&v, 3.5, pmc_mesh_points(m), np, pmc_mesh_triangles(m), nt, NULL,
+                             &with_null),
+                 PMC_STATUS_OK);
+    CHECK(memcmp(&plain, &with_null, sizeof plain) == 0);
+    CHECK(plain.samples == nt * 15); /* density 4 */
+
+    CHECK_STATUS(pmc_measure_options_set_density(o, 0), PMC_STATUS_INVALID_ARGUMENT);
+    CHECK(strcmp(last_error(), "measure density 0 is outside 1..=1024") == 0);
+    CHECK_STATUS(pmc_measure_options_set_density(o, PMC_MAX_MEASURE_DENSITY + 1),
+                 PMC_STATUS_INVALID_ARGUMENT);
+    CHECK_STATUS(pmc_measure_options_set_threads(o, PMC_MAX_THREADS + 1),
+                 PMC_STATUS_INVALID_ARGUMENT);
+    CHECK(strcmp(last_error(), "4097 threads is above the limit of 4096") == 0);
+    CHECK_STATUS(pmc_measure_options_set_tolerance(o, PMC_MIN_MEASURE_TOLERANCE / 2, 0.02),
+                 PMC_STATUS_INVALID_ARGUMENT);
+    CHECK(strstr(last_error(), "at least 1e-8 cells") != NULL);
+    CHECK_STATUS(pmc_measure_options_set_tolerance(o, 1e-5, 1.0), PMC_STATUS_INVALID_ARGUMENT);
+    CHECK(strcmp(last_error(), "relative measure tolerance 1 must be in [0, 1)") == 0);
+    CHECK_STATUS(pmc_measure_options_set_density(NULL, 4), PMC_STATUS_NULL_ARGUMENT);
+    CHECK_STATUS(pmc_measure_options_set_threads(NULL, 1), PMC_STATUS_NULL_ARGUMENT);
+    CHECK_STATUS(pmc_measure_options_set_tolerance(NULL, 1e-5, 0.02), PMC_STATUS_NULL_ARGUMENT);
+    /* Nothing refused above changed the settings: still the defaults. */
+    CHECK_STATUS(pmc_measure(&v, 3.5, pmc_mesh_points(m), np, pmc_mesh_triangles(m), nt, o,
+                             &with_null),
+                 PMC_STATUS_OK);
+    CHECK(memcmp(&plain, &with_null, sizeof plain) == 0);
+
+    CHECK_STATUS(pmc_measure_options_set_density(o, 9), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_measure_options_set_tolerance(o, 1e-6, 0.0), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_measure_options_set_threads(o, 1), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_measure(&v, 3.5, pmc_mesh_points(m), np, pmc_mesh_triangles(m), nt, o, &dense),
+                 PMC_STATUS_OK);
+    CHECK(dense.samples == nt * 55); /* (9 + 1)(9 + 2) / 2 a triangle */
+    CHECK(dense.max >= plain.max - 2e-5 - 0.02 * plain.max);
+    CHECK_STATUS(pmc_measure_options_set_threads(o, 2), PMC_STATUS_OK);
+    CHECK_STATUS(pmc_measure(&v, 3.5, pmc_mesh_points(m), np, pmc_mesh_triangles(m), nt, o,
+                             &dense2),
+                 PMC_STATUS_OK);
+    CHECK(memcmp(&dense, &dense2, sizeof dense) == 0); /* any thread count */
+
+    pmc_measure_options_free(o);
+    pmc_measure_options_free(NULL);
+    pmc_mesh_free(m);
+    pmc_options_free(eo);
+    free((void *)v.data);
+}
+
 int main(void) {
     char buf[8] = "garbage";
     /* Before any failure the message is empty. */
@@ -378,5 +447,6 @@ int main(void) {
     test_extract_errors();
     test_null_accessors();
     test_last_error_message();
+    test_measure_options();
     return test_finish("test_errors");
 }
