@@ -131,6 +131,8 @@ void ApplyNiftiScaling(vtkNIFTIImageReader* reader, vtkImageData* volume)
 //   type (the types of a VTK array: not binary, float128 or complex256).
 // - A dimension count outside 1..7 or a used dimension below 1: 0 vector
 //   components made the reader divide by zero (SIGFPE).
+// - A dimension 6 or 7 (within the count) above 1: the reader ignores
+//   them and gave the first of the 3D volumes the header declares.
 // - In a single-file .nii, data that starts inside the header (vox_offset
 //   below 352, 544 for NIfTI-2): the header's own bytes were read as the
 //   first samples.
@@ -203,6 +205,20 @@ void CheckNiftiHeader(const std::string& path)
     {
       Unreadable(path, "its header gives " + std::to_string(dim(i)) + " " + names[i] +
           " (dim[" + std::to_string(i) + "]): every dimension used holds at least 1");
+    }
+  }
+  // Dimensions 6 and 7 above 1: VTK's reader ignores them and gave the
+  // first 3D volume of the many the header declares, exit status 0.
+  // (Dimension 5 is read as the samples' vector components, component 0
+  // contoured; more than one time point is refused after the read.)
+  for (int i = 6; i <= count; ++i)
+  {
+    if (dim(i) > 1)
+    {
+      Unreadable(path, "its header declares " + std::to_string(dim(i)) + " along " + names[i] +
+          " (dim[" + std::to_string(i) + "]): more than one 3D volume, and VTK's NIfTI reader "
+          "ignores dimensions 6 and 7 and would give the first only (write one file per 3D "
+          "volume)");
     }
   }
   // The spacing of each spatial axis: pixdim[1..3], float32 from byte 80

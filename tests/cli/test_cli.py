@@ -2385,8 +2385,11 @@ def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
     zero (SIGFPE), and a single-file .nii whose vox_offset lies inside the
     header (below 352) had the header's bytes read as samples, exit status
     0; a dimension count beyond 7, a used dimension of 0 and a spacing of
-    0 (pixdim, which the reader took for 1) are refused too. .nii and
-    .nii.gz alike; the file they were made from still reads."""
+    0 (pixdim, which the reader took for 1) are refused too, and so are
+    dimensions 6 or 7 above 1 (dim = {7, x, y, z, 1, 1, 1, 32767}: the
+    reader ignores them and gave the first 3D volume, exit status 0). .nii
+    and .nii.gz alike; the file they were made from still reads, and so
+    do vector components (dim[5]) and sizes beyond dim[0]."""
     import gzip
     d = fresh_dir("nifti-header")
     out = os.path.join(d, "o.vtp")
@@ -2405,6 +2408,9 @@ def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
         ("time0", patched("<8h", 40, 4, *dims[1:4], 0, 1, 1, 1), "0 time points (dim[4])"),
         ("x0", patched("<8h", 40, 3, 0, *dims[2:8]), "0 x (dim[1])"),
         ("eight", patched("<8h", 40, 8, *dims[1:8]), "8 dimensions (dim[0])"),
+        ("dim6", patched("<8h", 40, 6, *dims[1:4], 1, 1, 4, 1), "4 along dimension 6 (dim[6])"),
+        ("dim7", patched("<8h", 40, 7, *dims[1:4], 1, 1, 1, 32767),
+         "32767 along dimension 7 (dim[7])"),
         ("offset0", patched("<f", 108, 0.0), "data at byte 0 (vox_offset)"),
         ("offset348", patched("<f", 108, 348.0), "data at byte 348 (vox_offset)"),
         ("spacing0", patched("<f", 84, 0.0), "spacing of 0 along axis 1 (pixdim[2])"),
@@ -2416,6 +2422,19 @@ def nifti_headers_vtk_crashes_on_or_misreads_are_refused():
                 f.write(content)
             expect_refused_in_time(path, fragment, out)
     ok(good, "-q", "-o", out)
+    # Still read: 3 vector components (dim[5], the samples three times;
+    # component 0 contoured), and sizes beyond the dimension count, which
+    # NIfTI ignores.
+    offset = int(struct.unpack("<f", data[108:112])[0])
+    vector = os.path.join(d, "vector.nii")
+    with open(vector, "wb") as f:
+        f.write(patched("<8h", 40, 5, *dims[1:4], 1, 3, 1, 1) + data[offset:] * 2)
+    r = ok(vector, "-o", out)
+    expect("(component 0 of 3)" in r.stdout, f"table header:\n{r.stdout}")
+    beyond = os.path.join(d, "beyond.nii")
+    with open(beyond, "wb") as f:
+        f.write(patched("<8h", 40, 5, *dims[1:4], 1, 1, 9, 9))
+    ok(beyond, "-q", "-o", out)
 
 
 @check
