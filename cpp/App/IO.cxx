@@ -507,6 +507,14 @@ vtkSmartPointer<vtkImageData> ReadVolumeUnchecked(const std::string& path,
             "sizes in one directory?)");
       }
     }
+    // One series a directory: the reader reads the first and leaves the
+    // others out (checked after the layouts, whose messages say more of
+    // series that differ in size).
+    const std::string several = SeveralSeries(dicom);
+    if (!several.empty())
+    {
+      Unreadable(path, several);
+    }
     reader->Update();
     TakeVTKErrors();
     image = vtkImageData::SafeDownCast(reader->GetOutputDataObject(0));

@@ -182,6 +182,39 @@ std::string UnreadableSlice(const std::string& dir, const std::vector<std::strin
   return "";
 }
 
+// Why the files VTK's DICOM reader parsed in a directory cannot be read
+// as one series ("" if they can): they belong to several (Series Instance
+// UID). The reader reads the first series by UID and leaves the others
+// out without a word, so of a CT series and another beside it (a second
+// reconstruction, a localizer of the same size) the order of their UIDs
+// chose the one contoured, exit status 0.
+std::string SeveralSeries(vtkSliceListingDICOMReader* reader)
+{
+  const auto series = reader->Series();
+  if (series.size() < 2)
+  {
+    return "";
+  }
+  const auto describe = [](const std::pair<std::string, std::vector<std::string>>& s) {
+    const size_t n = s.second.size();
+    return s.first +
+      (n == 0 ? std::string()
+              : " ('" + s.second.front() + "'" +
+            (n > 1 ? " and " + std::to_string(n - 1) + " more file" + (n > 2 ? "s" : "")
+                   : std::string()) +
+            ")");
+  };
+  std::string listed = describe(series[0]) + " and " + describe(series[1]);
+  if (series.size() > 2)
+  {
+    listed = describe(series[0]) + ", " + describe(series[1]) + " and " +
+      std::to_string(series.size() - 2) + " more";
+  }
+  return "its files belong to " + std::to_string(series.size()) +
+    " DICOM series (Series Instance UIDs " + listed + "), of which VTK's DICOM reader would "
+    "read one only, without a word: put each series in a directory of its own";
+}
+
 // Throws when the DICOM directory `path` holds an entry that is neither a
 // regular file nor a directory: VTK's DICOM reader opens every entry, and
 // waited for a writer on a FIFO (or read a device without end).

@@ -52,6 +52,29 @@ public:
     return out;
   }
 
+  // Each series (Series Instance UID, ascending) among the files it
+  // parsed, with the names of its files, sorted. The reader reads the
+  // first series only and leaves the others out without a word.
+  std::vector<std::pair<std::string, std::vector<std::string>>> Series()
+  {
+    dicom_stl::vector<dicom_stl::string> uids;
+    this->AppHelper->GetSeriesUIDs(uids);
+    std::vector<std::pair<std::string, std::vector<std::string>>> out;
+    for (const auto& uid : uids)
+    {
+      dicom_stl::vector<dicom_stl::pair<float, dicom_stl::string>> pairs;
+      this->AppHelper->GetImagePositionPatientFilenamePairs(uid, pairs);
+      std::vector<std::string> names;
+      for (const auto& p : pairs)
+      {
+        names.push_back(FileNameOf(p.second));
+      }
+      std::sort(names.begin(), names.end());
+      out.emplace_back(uid, names);
+    }
+    return out;
+  }
+
 protected:
   vtkSliceListingDICOMReader() = default;
   ~vtkSliceListingDICOMReader() override = default;
@@ -102,6 +125,10 @@ std::string PixelDataProblem(const std::string& file, SliceLayout& layout);
 // A file of the directory `dir` named like the series' files that the
 // reader left out and cannot read on its own either ("" if none).
 std::string UnreadableSlice(const std::string& dir, const std::vector<std::string>& taken);
+
+// Why the files `reader` parsed cannot be read as one series ("" if they
+// can): they belong to more than one.
+std::string SeveralSeries(vtkSliceListingDICOMReader* reader);
 
 // Refuses a directory holding an entry that is neither a regular file nor
 // a directory.

@@ -361,10 +361,10 @@ def dicom_slice_that_cannot_be_read_is_refused():
     """VTK's DICOM reader leaves out a file of the series it cannot parse:
     with one slice file empty, or cut short after its header, a 24x20x18
     series was read as 24x20x17, exit status 0 (the slices around the gap
-    closed up). Such a series is refused, naming the file; a second, valid
-    series in the same directory is still not an error (the reader takes
-    one series, as before), nor are files named otherwise than the slices
-    (a README, a DICOMDIR, a report) or hidden ones."""
+    closed up). Such a series is refused, naming the file; files named
+    otherwise than the slices (a README, a DICOMDIR, a report) or hidden
+    ones are not an error (a second series is: see
+    dicom_directory_with_two_series_is_refused)."""
     from dicom import write_series
     d = fresh_dir("dicom-bad-slice")
     _, spacing, _, v = blob_volume()
@@ -399,12 +399,10 @@ def dicom_slice_that_cannot_be_read_is_refused():
     with open(os.path.join(bare, "IM007"), "wb") as f:
         f.write(b"")
     expect_error([bare, "-o", out], "IM007", outputs=[out], status=1)
-    # Not errors: a second, valid series; files that are not slices of the
-    # series (named otherwise, or hidden, as a copy from a Mac leaves them).
-    both = os.path.join(d, "two-series")
+    # Not errors: files that are not slices of the series (named
+    # otherwise, or hidden, as a copy from a Mac leaves them).
+    both = os.path.join(d, "other-files")
     write_series(both, samples, spacing)
-    write_series(both, samples[:5], spacing, series="1.2.826.0.1.3680043.9.7777.2",
-                 prefix="other")
     for name in ("README", "DICOMDIR", "report.dcm", "._slice001.dcm", "notes.txt"):
         with open(os.path.join(both, name), "wb") as f:
             f.write(b"not a slice\n")
@@ -509,15 +507,48 @@ def dicom_slice_laid_out_otherwise_is_refused():
                     os.path.join(localizer, f"slice90{i}.dcm"))
     # The reader takes the series sorting first (the localizer) but lays
     # the volume out by the last file it parsed, in directory order: a
-    # 16x16 slice of the other series (refused), or a localizer slice (its
-    # 4x4x3 volume read as it is).
-    r = run(localizer, "-o", out)
-    expect(r.returncode in (0, 1), f"exit status {r.returncode}: {r.stderr!r}")
-    if r.returncode == 1:
-        expect_error([localizer, "-o", out], "have rows 4 where VTK's reader lays the volume out "
-                     "with 16", outputs=[out], status=1)
-    else:
-        expect("localizer: 4x4x3" in r.stdout, f"table header:\n{r.stdout}")
+    # 16x16 slice of the other series (refused as such), or a localizer
+    # slice (its 4x4x3 volume was read as it is; refused since as two
+    # series in one directory).
+    line = expect_error([localizer, "-o", out], outputs=[out], status=1)
+    expect("have rows 4 where VTK's reader lays the volume out with 16" in line or
+           "its files belong to 2 DICOM series" in line, f"stderr: {line!r}")
+
+
+@check
+def dicom_directory_with_two_series_is_refused():
+    """VTK's DICOM reader reads the first series of a directory by Series
+    Instance UID and leaves the others out without a word: a directory
+    holding a second series (of the same layout, or of another spacing and
+    slice positions: no slice of one clashes with the other's) was read as
+    one of them, exit status 0. Refused, naming both series' UIDs and a
+    file of each; each series in a directory of its own reads."""
+    from dicom import write_series
+    d = fresh_dir("dicom-two-series")
+    _, spacing, _, v = blob_volume()
+    samples = np.round(v * 10.0).astype(np.int16)
+    out = os.path.join(d, "o.vtp")
+    first, second = "1.2.826.0.1.3680043.9.7777.1", "1.2.826.0.1.3680043.9.7777.2"
+    for label, other_spacing in (("same-layout", spacing), ("other-geometry", (2.0, 2.0, 3.0))):
+        both = os.path.join(d, label)
+        write_series(both, samples, spacing, series=first)
+        write_series(both, samples[:5], other_spacing, series=second, prefix="other")
+        try:
+            line = expect_error([both, "-o", out], "its files belong to 2 DICOM series",
+                                outputs=[out], status=1)
+            for fragment in (f"{first} ('slice001.dcm' and 17 more files)",
+                             f"{second} ('other001.dcm' and 4 more files)",
+                             "put each series in a directory of its own"):
+                expect(fragment in line, f"{fragment!r} not in {line!r}")
+        except Failure as e:
+            raise Failure(f"{label}: {e}")
+    # Apart, each reads.
+    a = os.path.join(d, "first")
+    b = os.path.join(d, "second")
+    write_series(a, samples, spacing, series=first)
+    write_series(b, samples[:5], (2.0, 2.0, 3.0), series=second, prefix="other")
+    ok(a, "-q", "-o", os.path.join(d, "a.vtp"))
+    ok(b, "-q", "-o", os.path.join(d, "b.vtp"))
 
 
 @check
