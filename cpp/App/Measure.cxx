@@ -17,6 +17,7 @@
 #include "vtkPolyData.h"
 #include "vtkSmartPointer.h"
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,7 +42,8 @@ std::string LastLibraryError()
 
 }
 
-Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surface, unsigned density)
+Distance MeasureDistance(
+  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, unsigned threads)
 {
   vtkDataArray* scalars = volume->GetPointData()->GetScalars();
   if (!scalars)
@@ -142,13 +144,27 @@ Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surfac
   }
   pmc_distance out = pmc_distance();
   out.struct_size = sizeof(out);
-  pmc_status status = pmc_measure_distance(&v, value, xyz.data(), static_cast<uint64_t>(np),
-    tris.data(), static_cast<uint64_t>(tris.size() / 3), density, &out);
+  std::unique_ptr<pmc_measure_options, void (*)(pmc_measure_options*)> settings(
+    pmc_measure_options_new(), pmc_measure_options_free);
+  pmc_status status = settings ? PMC_STATUS_OK : PMC_STATUS_INTERNAL_ERROR;
+  if (status == PMC_STATUS_OK)
+  {
+    status = pmc_measure_options_set_density(settings.get(), density);
+  }
+  if (status == PMC_STATUS_OK)
+  {
+    status = pmc_measure_options_set_threads(settings.get(), threads);
+  }
+  if (status == PMC_STATUS_OK)
+  {
+    status = pmc_measure(&v, value, xyz.data(), static_cast<uint64_t>(np), tris.data(),
+      static_cast<uint64_t>(tris.size() / 3), settings.get(), &out);
+  }
   if (status != PMC_STATUS_OK)
   {
     std::string why = LastLibraryError();
-    throw Error(std::string("--measure: pmc_measure_distance failed: ") +
-      pmc_status_string(status) + (why.empty() ? std::string() : " (" + why + ")"));
+    throw Error(std::string("--measure: pmc_measure failed: ") + pmc_status_string(status) +
+      (why.empty() ? std::string() : " (" + why + ")"));
   }
   result.Max = out.max;
   result.Mean = out.mean;

@@ -1,5 +1,5 @@
 // --measure: the distance of a surface to the trilinear isosurface S_K of
-// the volume, measured by the PreciseMC core (pmc_measure_distance).
+// the volume, measured by the PreciseMC core (pmc_measure).
 #ifndef precisemc_app_Measure_h
 #define precisemc_app_Measure_h
 
@@ -25,9 +25,11 @@ struct Distance
 // whatever the extent and the direction matrix) lie from the isovalue
 // `value` of the trilinear interpolant of component 0 of `volume`'s
 // scalars, sampling each triangle on a barycentric grid of `density`
-// subdivisions per edge. Every triangle of `surface` is measured: it must
-// be the surface of `value` alone. Throws pmcapp::Error.
-Distance MeasureDistance(vtkImageData* volume, double value, vtkPolyData* surface, unsigned density);
+// subdivisions per edge, on `threads` threads (0: all cores; --threads).
+// Every triangle of `surface` is measured: it must be the surface of
+// `value` alone. Throws pmcapp::Error.
+Distance MeasureDistance(
+  vtkImageData* volume, double value, vtkPolyData* surface, unsigned density, unsigned threads);
 
 }
 

@@ -436,7 +436,8 @@ options:
                         refinement stops at the deepest level that fits
                         (the Marching Cubes triangles are always kept);
                         0 = no cap (default)
-      --threads N       worker threads; 0 = all cores (default)
+      --threads N       worker threads (also of --measure); 0 = all cores
+                        (default)
       --smp             run the library's work as vtkSMPTools tasks, on
                         VTK's SMP backend (VTK_SMP_BACKEND_IN_USE), with
                         --threads N of them when N > 0 (at most the

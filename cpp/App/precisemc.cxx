@@ -606,6 +606,8 @@ int main(int argc, char* argv[])
       {
         start = Clock::now();
         const unsigned density = static_cast<unsigned>(o.MeasureDensity < 0 ? 3 : o.MeasureDensity);
+        // --threads bounds the measure too (it used all cores).
+        const unsigned measureThreads = static_cast<unsigned>(o.Threads);
         for (double v : d.Values)
         {
           const bool alone = d.Values.size() == 1;
@@ -613,9 +615,10 @@ int main(int argc, char* argv[])
             alone ? panel.MC : Baseline(d, std::vector<double>{ v });
           vtkSmartPointer<vtkPolyData> refinedSurface =
             alone ? panel.Refined : ExtractOne(d, v, o);
-          mcDistances.push_back(pmcapp::MeasureDistance(d.Volume, v, mcSurface, density));
+          mcDistances.push_back(
+            pmcapp::MeasureDistance(d.Volume, v, mcSurface, density, measureThreads));
           refinedDistances.push_back(
-            pmcapp::MeasureDistance(d.Volume, v, refinedSurface, density));
+            pmcapp::MeasureDistance(d.Volume, v, refinedSurface, density, measureThreads));
         }
         measureSeconds = SecondsSince(start);
       }

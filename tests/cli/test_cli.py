@@ -2998,6 +2998,34 @@ def a_limit_on_threads_runs_on_the_threads_that_start():
 
 
 @check
+def measure_runs_on_the_threads_asked_for():
+    """--threads bounds --measure too (it measured on all cores whatever
+    --threads said): the process's threads, polled while it runs, stay at
+    one with --threads 1; with --threads 2 the poll sees the second."""
+    if (os.cpu_count() or 1) < 2:
+        raise Skipped("one core: all cores is one thread")
+
+    def most_threads(threads):
+        p = subprocess.Popen([TOOL, "--sample", "atoms", "--threads", threads, "--measure",
+                              "--measure-density", "4"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        most, start = 0, time.monotonic()
+        while p.poll() is None and time.monotonic() - start < TIMEOUT:
+            try:
+                most = max(most, len(os.listdir(f"/proc/{p.pid}/task")))
+            except FileNotFoundError:
+                break
+            time.sleep(0.002)
+        out, err = p.communicate(timeout=TIMEOUT)
+        expect(p.returncode == 0, f"--threads {threads}: exit status {p.returncode}: {err!r}")
+        measured(out, "S_K distance out")  # the measure ran
+        return most
+
+    expect(most_threads("1") == 1, "--threads 1 --measure ran on more than one thread")
+    expect(most_threads("2") >= 2, "--threads 2: the poll saw no second thread")
+
+
+@check
 def no_progress_bar_when_not_a_terminal():
     r = ok("--sample", "ml")
     expect(r.stderr == "", "stderr written")
