@@ -9,6 +9,7 @@
 #include "vtkErrorCode.h"
 #include "vtkOBJWriter.h"
 #include "vtkPLYWriter.h"
+#include "vtkPointData.h"
 #include "vtkPoints.h"
 #include "vtkPolyData.h"
 #include "vtkSTLWriter.h"
@@ -258,6 +259,15 @@ void WriteSurface(
                    "run's accuracy (.vtp and .obj keep double)"
                 << std::endl;
     }
+  }
+
+  // Only .vtp holds point arrays beyond normals: --gradients' array would
+  // be left out without a word.
+  if (ext != ".vtp" && !quiet && surface->GetPointData()->GetArray("Gradients"))
+  {
+    std::cerr << "precisemc: warning: '" << path << "': " << ext.substr(1)
+              << " holds no \"Gradients\" array: --gradients is not written (.vtp holds it)"
+              << std::endl;
   }
 
   TakeVTKErrors();

@@ -592,6 +592,12 @@ def explicit_values_and_filter_options():
     g, n = (vtk_to_numpy(pd.GetArray(a)).astype(float) for a in ("Gradients", "Normals"))
     expect(len(g) > 0 and np.abs(n + g / np.linalg.norm(g, axis=1)[:, None]).max() < 1e-5,
            "--gradients: the normals are not the negated, normalised gradients")
+    # Only .vtp holds the array: the other formats say that it is left out
+    # (it was dropped without a word), -q does not.
+    for ext in ("ply", "stl", "obj"):
+        ok("--sample", "tube", "--gradients", "-o", os.path.join(d, "g." + ext),
+           warns=f'{ext} holds no "Gradients" array')
+        ok("--sample", "tube", "--gradients", "-q", "-o", os.path.join(d, "q." + ext))
     for rule in ("A", "a1", "A2", "b"):
         ok("--sample", "tube", "--rule", rule, "-q")
     r = ok("--sample", "atoms", "--max-triangles", "4000")
