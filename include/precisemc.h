@@ -22,8 +22,8 @@
 
 #define PMC_VERSION_MAJOR 0
 #define PMC_VERSION_MINOR 2
-#define PMC_VERSION_PATCH 0
-#define PMC_VERSION_STRING "0.2.0"
+#define PMC_VERSION_PATCH 1
+#define PMC_VERSION_STRING "0.2.1"
 
 /**
  * Highest value accepted by `pmc_measure_options_set_density`.
