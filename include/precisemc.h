@@ -302,7 +302,8 @@ typedef uint32_t pmc_reconstruction;
  * `pmc_measure_options_new`, change with the `pmc_measure_options_set_*`
  * functions, pass to `pmc_measure`, release with
  * `pmc_measure_options_free`. May be shared by concurrent `pmc_measure`
- * calls as long as it is not modified or freed meanwhile.
+ * calls as long as it is not modified or freed meanwhile. Since 0.2.1,
+ * with the functions below.
  */
 typedef struct pmc_measure_options pmc_measure_options;
 
@@ -776,7 +777,7 @@ pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue
  * defaults, those of `pmc_measure_options_new`): the density, the
  * tolerances each distance is certified to and the number of threads
  * (see the `pmc_measure_options_set_*` functions). Arguments, results
- * and errors otherwise as there.
+ * and errors otherwise as there. Since 0.2.1.
  *
  * # Safety
  *

@@ -145,7 +145,7 @@ pub unsafe extern "C" fn pmc_measure_distance(
 /// defaults, those of `pmc_measure_options_new`): the density, the
 /// tolerances each distance is certified to and the number of threads
 /// (see the `pmc_measure_options_set_*` functions). Arguments, results
-/// and errors otherwise as there.
+/// and errors otherwise as there. Since 0.2.1.
 ///
 /// # Safety
 ///

@@ -19,7 +19,8 @@ const _: () = assert!(PMC_MIN_MEASURE_TOLERANCE == MIN_TOLERANCE);
 /// `pmc_measure_options_new`, change with the `pmc_measure_options_set_*`
 /// functions, pass to `pmc_measure`, release with
 /// `pmc_measure_options_free`. May be shared by concurrent `pmc_measure`
-/// calls as long as it is not modified or freed meanwhile.
+/// calls as long as it is not modified or freed meanwhile. Since 0.2.1,
+/// with the functions below.
 pub struct pmc_measure_options {
     _private: [u8; 0],
 }
