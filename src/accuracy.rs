@@ -50,11 +50,14 @@ pub struct MeasureOptions {
     /// with every decade below the default).
     pub tolerance: f64,
     /// Relative tolerance of each distance (a fraction of the distance), in
-    /// `[0, 1)`. Default 0.02: distances are certified to within
-    /// `tolerance + relative_tolerance * d`. With it 0 the search's cost
-    /// grows as 1/`tolerance` where `S_K` curves around the sample (a
-    /// sphere-like cap at nearly the same distance): a sample's search
-    /// then stops after [`MAX_SEARCH_BOXES`] boxes (see there).
+    /// `[0, 1)`. Default 0.02: a distance `d` is reported as at least
+    /// `d` and at most `d + tolerance + relative_tolerance * d`. With it 0
+    /// the search's cost grows as 1/`tolerance` where `S_K` curves around
+    /// the sample (a sphere-like cap at nearly the same distance) and
+    /// where it runs flat at a distance (a plane 26 cells away, at the
+    /// default `tolerance`): the boxes along it are all about as near,
+    /// and a sample's search may stop after [`MAX_SEARCH_BOXES`] boxes
+    /// (see there), overstating the distance by more than `tolerance`.
     pub relative_tolerance: f64,
     /// Worker threads; 0 = all cores. Default 0; values above
     /// [`crate::MAX_THREADS`] are clamped. The calling thread works beside
@@ -80,15 +83,21 @@ impl Default for MeasureOptions {
 /// minutes (1e-10), and a whole mesh hours.
 pub const MIN_TOLERANCE: f64 = 1e-8;
 
-/// Most boxes one sample's search examines: 65 536 (memory about 50 MiB
-/// a thread at worst). A search that reaches it ends with the nearest
-/// point of `S_K` found so far, an upper bound of the distance: the
-/// measure may then overstate a distance, never understate it, by less
-/// than the search's remaining gap. With the default tolerances no
-/// sample of the project's tests comes near it; with
-/// `relative_tolerance` 0 and `tolerance` 1e-7 the search of one sample
-/// next to a curved sheet grew to gigabytes before this bound.
+/// Most boxes one sample's search examines: 65 536. A search that
+/// reaches it (or [`MAX_SEARCH_HEAP`]) ends with the nearest point of
+/// `S_K` found so far, an upper bound of the distance: the measure may
+/// then overstate a distance, never understate it, by less than the
+/// search's remaining gap. With the default tolerances no sample of the
+/// project's tests comes near it; with `relative_tolerance` 0 and
+/// `tolerance` 1e-7 the search of one sample next to a curved sheet grew
+/// to gigabytes before this bound.
 pub const MAX_SEARCH_BOXES: usize = 1 << 16;
+
+/// Most boxes one sample's search keeps waiting at once: 524 288, about
+/// 55 MB a thread (a box takes 104 bytes). Reached, the search ends as at
+/// [`MAX_SEARCH_BOXES`]. Blocks of 8^3 cells wait as one box until they
+/// come first, so a search holds few cells it never examines.
+pub const MAX_SEARCH_HEAP: usize = 1 << 19;
 
 /// How far outside the volume a measured point may lie, in cells (index
 /// space, along each axis): farther, the squares of distances and of
@@ -242,7 +251,7 @@ fn measure_grid<T: Scalar>(
         let mut s = Sums::default();
         for t in chunk {
             let [a, b, c] = t.map(|v| points[v as usize]);
-            let area = 0.5 * (b - a).cross(c - a).length();
+            let area = 0.5 * norm((b - a).cross(c - a));
             let w = area / per_tri as f64;
             let mut resolved = 0;
             for i in 0..=n {
@@ -379,6 +388,49 @@ fn box_distance(p: DVec3, lo: DVec3, size: f64) -> f64 {
     d.length()
 }
 
+/// The length of `v`, computed on `v` over its largest component: the
+/// square of a component below about 1e-154 underflows (a gradient of
+/// 1e-162 came out with a length off by a few percent, a triangle with
+/// legs of 1e-150 with no area at all), above about 1e154 it overflows.
+fn norm(v: DVec3) -> f64 {
+    let m = v.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        m * (v / m).length()
+    } else {
+        m
+    }
+}
+
+/// The interpolant minus `iso` at the corners of cell `(i, j, k)` (VTK
+/// order), times a power of two that brings the largest magnitude into
+/// `[1, 2)` when it lies outside `[2^-256, 2^256]`; `None` when a sample
+/// is not finite. The cell's zero set does not change: where a difference
+/// overflows (a sample of 1e308 and an isovalue of -1e308) both are halved
+/// first; and values of subnormal size (samples of +-5e-324 about an
+/// isovalue of 0), whose interpolant underflowed to an exact 0 over whole
+/// regions (points of `S_K` there, at distances of 1e-6 from a sample
+/// half a cell away), are scaled up exactly.
+fn cell_values<T: Scalar>(grid: &Grid<'_, T>, [i, j, k]: [usize; 3], iso: f64) -> Option<[f64; 8]> {
+    let mut v = [0.0; 8];
+    for (c, o) in CORNER_OFFSETS.iter().enumerate() {
+        let [x, y, z] = o.map(|v| v as usize);
+        v[c] = grid.get(i + x, j + y, k + z);
+    }
+    if !v.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let mut f = v.map(|x| x - iso);
+    if !f.iter().all(|x| x.is_finite()) {
+        f = v.map(|x| x * 0.5 - iso * 0.5);
+    }
+    let m = f.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if crate::magnitude::out_of_range(m) {
+        let [a, b] = crate::magnitude::factors(m);
+        f = f.map(|x| x * a * b);
+    }
+    Some(f)
+}
+
 /// The tolerance allowed for a distance near `d`.
 fn allowed(d: f64, tolerance: f64, relative: f64) -> f64 {
     tolerance + relative * d
@@ -434,7 +486,7 @@ fn linearise(f: &[f64; 8]) -> Linearised {
 /// the remainder bound of zero.
 fn lower_bound(p: DVec3, lo: DVec3, size: f64, lin: &Linearised) -> f64 {
     let boxed = box_distance(p, lo, size);
-    let len = lin.gradient.length();
+    let len = norm(lin.gradient);
     if len.is_nan() || len <= 0.0 {
         return boxed;
     }
@@ -463,12 +515,12 @@ fn surface_point(c: &Candidate, lin: &Linearised, p: DVec3) -> Option<DVec3> {
         }
         a + (b - a) * (0.5 * (lo + hi))
     };
-    let len2 = lin.gradient.length_squared();
-    if len2 > 0.0 {
+    let len = norm(lin.gradient);
+    if len > 0.0 && len.is_finite() {
         let x = (p - c.lo) / c.size - DVec3::splat(0.5);
-        let foot = (x - lin.gradient * ((lin.value + lin.gradient.dot(x)) / len2))
+        let d = lin.gradient / len;
+        let foot = (x - d * ((lin.value + lin.gradient.dot(x)) / len))
             .clamp(DVec3::splat(-0.5), DVec3::splat(0.5));
-        let d = lin.gradient / len2.sqrt();
         // Clip the line foot + t d to the box.
         let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
         for a in 0..3 {
@@ -511,6 +563,10 @@ fn surface_point(c: &Candidate, lin: &Linearised, p: DVec3) -> Option<DVec3> {
 /// Cells along each side of a [`Bricks`] block.
 const BRICK: usize = 8;
 
+/// [`BRICK`] as the edge length of a block's entry in a search's heap
+/// (every other box is a cell or a part of one, of edge 1 or less).
+const BRICK_SIZE: f64 = BRICK as f64;
+
 /// Which blocks of `BRICK`^3 cells may hold a cell that straddles the
 /// isovalue (their finite samples, the blocks' shared faces included, lie
 /// on both sides of it or on it): a sample's search reads only those
@@ -536,19 +592,22 @@ impl Bricks {
             let mut may = Vec::with_capacity(n[0] * n[1]);
             for bj in 0..n[1] {
                 for bi in 0..n[0] {
-                    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                    // Compared, not subtracted: a finite sample minus the
+                    // isovalue can overflow (1e308 and an isovalue of
+                    // -1e308), and such a block straddles all the same.
+                    let (mut below, mut above) = (false, false);
                     for k in samples(2, bk) {
                         for j in samples(1, bj) {
                             for i in samples(0, bi) {
-                                let v = grid.get(i, j, k) - iso;
+                                let v = grid.get(i, j, k);
                                 if v.is_finite() {
-                                    lo = lo.min(v);
-                                    hi = hi.max(v);
+                                    below |= v <= iso;
+                                    above |= v >= iso;
                                 }
                             }
                         }
                     }
-                    may.push(lo <= 0.0 && hi >= 0.0);
+                    may.push(below && above);
                 }
             }
             may
@@ -619,36 +678,15 @@ fn distance<T: Scalar>(
                 covered &= first[a] == 0 && last[a] == cells[a] - 1;
             }
         }
+        // Cells of the volume beyond the ball may be left unseen: then
+        // the radius bounds what they could hold. (Decided by block,
+        // conservatively: a block not wholly inside the ball counts.)
         let mut outside_ball = false;
-        // A cell meeting the ball: a box of the search if it straddles.
-        let mut visit = |i: usize, j: usize, k: usize| {
-            let lo = DVec3::new(i as f64, j as f64, k as f64);
-            if box_distance(p, lo, 1.0) > radius {
-                outside_ball = true;
-                return;
-            }
-            let mut f = [0.0; 8];
-            for (c, o) in CORNER_OFFSETS.iter().enumerate() {
-                let [x, y, z] = o.map(|v| v as usize);
-                f[c] = grid.get(i + x, j + y, k + z) - iso;
-            }
-            if !(f.iter().all(|v| v.is_finite()) && straddles(&f)) {
-                return;
-            }
-            let lower = lower_bound(p, lo, 1.0, &linearise(&f));
-            if lower < upper {
-                heap.push(Candidate {
-                    lower,
-                    lo,
-                    size: 1.0,
-                    f,
-                });
-            }
-        };
-        // Only in the blocks that may hold a straddling cell (the heap
-        // orders its boxes fully: the order they come in does not matter).
-        let cells_of =
-            |a: usize, b: usize| (b * BRICK).max(first[a])..=(b * BRICK + BRICK - 1).min(last[a]);
+        // A block that may hold a straddling cell and meets the box goes
+        // on the heap as one entry, its cells only when it comes first
+        // (see `BRICK_SIZE`): pushing every straddling cell within the
+        // radius at once took 1.35 GB for one sample 300 cells from a
+        // 256^3 volume all at the isovalue.
         if !empty {
             for bk in first[2] / BRICK..=last[2] / BRICK {
                 for bj in first[1] / BRICK..=last[1] / BRICK {
@@ -656,12 +694,18 @@ fn distance<T: Scalar>(
                         if !bricks.may_straddle([bi, bj, bk]) {
                             continue;
                         }
-                        for k in cells_of(2, bk) {
-                            for j in cells_of(1, bj) {
-                                for i in cells_of(0, bi) {
-                                    visit(i, j, k);
-                                }
-                            }
+                        let lo = DVec3::new(bi as f64, bj as f64, bk as f64) * BRICK_SIZE;
+                        let far = (lo + DVec3::splat(0.5 * BRICK_SIZE) - p).abs()
+                            + DVec3::splat(0.5 * BRICK_SIZE);
+                        outside_ball |= far.length() > radius;
+                        let lower = box_distance(p, lo, BRICK_SIZE);
+                        if lower < upper && lower <= radius {
+                            heap.push(Candidate {
+                                lower,
+                                lo,
+                                size: BRICK_SIZE,
+                                f: [0.0; 8],
+                            });
                         }
                     }
                 }
@@ -672,19 +716,55 @@ fn distance<T: Scalar>(
         // volume): the lower bound of the boxes left cannot exceed it.
         let unseen = if covered { f64::INFINITY } else { radius };
         while let Some(c) = heap.pop() {
-            if c.lower.min(unseen) >= upper - allowed(upper, tolerance, relative) {
-                // Every box left, seen or not, is at least this far: upper
-                // is certified.
+            // Every box left, seen or not, is at least `nearest` away, and
+            // so is S_K: upper is certified once it is within the
+            // tolerance of that distance (d + tolerance + relative * d at
+            // most, for the distance d).
+            let nearest = c.lower.min(unseen);
+            if upper - nearest <= allowed(nearest, tolerance, relative) {
                 return Some(upper);
             }
             examined += 1;
-            if examined > MAX_SEARCH_BOXES && upper.is_finite() {
+            if (examined > MAX_SEARCH_BOXES || heap.len() > MAX_SEARCH_HEAP) && upper.is_finite() {
                 // See MAX_SEARCH_BOXES: the bound found so far.
                 return Some(upper);
             }
             if !covered && c.lower > radius && upper > radius {
                 // A nearer surface may lie in cells beyond the radius.
                 break;
+            }
+            if c.size == BRICK_SIZE {
+                // A block: its straddling cells within the ball.
+                let [bi, bj, bk] = [0, 1, 2].map(|a| c.lo[a] as usize / BRICK);
+                let cells_of = |a: usize, b: usize| {
+                    (b * BRICK).max(first[a])..=(b * BRICK + BRICK - 1).min(last[a])
+                };
+                for k in cells_of(2, bk) {
+                    for j in cells_of(1, bj) {
+                        for i in cells_of(0, bi) {
+                            let lo = DVec3::new(i as f64, j as f64, k as f64);
+                            if box_distance(p, lo, 1.0) > radius {
+                                continue;
+                            }
+                            let Some(f) = cell_values(grid, [i, j, k], iso) else {
+                                continue;
+                            };
+                            if !straddles(&f) {
+                                continue;
+                            }
+                            let lower = lower_bound(p, lo, 1.0, &linearise(&f));
+                            if lower < upper {
+                                heap.push(Candidate {
+                                    lower,
+                                    lo,
+                                    size: 1.0,
+                                    f,
+                                });
+                            }
+                        }
+                    }
+                }
+                continue;
             }
             let lin = linearise(&c.f);
             if let Some(q) = surface_point(&c, &lin, p) {
