@@ -857,6 +857,29 @@ int vtkPreciseMarchingCubes::Contour(
   const vtkIdType numContours = this->ContourValues->GetNumberOfContours();
   const double* listed = this->ContourValues->GetValues();
   const std::vector<double> values(listed, listed + (numContours > 0 ? numContours : 0));
+  // An extent whose point count overflows vtkIdType (or whose length
+  // overflows an int) reads as empty or negative: say so rather than
+  // return nothing.
+  {
+    int ext[6];
+    input->GetExtent(ext);
+    if (ext[0] <= ext[1] && ext[2] <= ext[3] && ext[4] <= ext[5])
+    {
+      double points = 1.0;
+      for (int i = 0; i < 3; ++i)
+      {
+        points *= static_cast<double>(ext[2 * i + 1]) - static_cast<double>(ext[2 * i]) + 1.0;
+      }
+      if (points > static_cast<double>(VTK_ID_MAX) ||
+        static_cast<double>(input->GetNumberOfPoints()) != points)
+      {
+        vtkErrorMacro(<< "The input's extent (" << ext[0] << ", " << ext[1] << ", " << ext[2]
+                      << ", " << ext[3] << ", " << ext[4] << ", " << ext[5] << ") holds " << points
+                      << " points, more than vtkImageData can count");
+        return 1;
+      }
+    }
+  }
   if (input->GetNumberOfPoints() < 1 || numContours < 1)
   {
     vtkDebugMacro(<< "Empty input or no contour values");
@@ -878,9 +901,24 @@ int vtkPreciseMarchingCubes::Contour(
                     << ": integer and floating point arrays are supported");
       return 1;
     }
+    // An array sought among the cells' or the field's arrays (and not
+    // found there): only point data can be contoured, whatever the name.
+    vtkInformation* chosen = this->GetInputArrayInformation(0);
+    const int asked = chosen && chosen->Has(vtkDataObject::FIELD_ASSOCIATION())
+      ? chosen->Get(vtkDataObject::FIELD_ASSOCIATION())
+      : vtkDataObject::FIELD_ASSOCIATION_POINTS;
+    if (asked != vtkDataObject::FIELD_ASSOCIATION_POINTS &&
+      asked != vtkDataObject::FIELD_ASSOCIATION_POINTS_THEN_CELLS)
+    {
+      vtkErrorMacro(<< "The array to contour is sought among the input's "
+                    << (asked == vtkDataObject::FIELD_ASSOCIATION_CELLS ? "cell" : "non-point")
+                    << " data (association " << asked
+                    << "), but only point data can be contoured: select it with "
+                       "FIELD_ASSOCIATION_POINTS");
+      return 1;
+    }
     // An array chosen by a name the input lacks (ParaView's Contour By):
     // name it and what there is.
-    vtkInformation* chosen = this->GetInputArrayInformation(0);
     const char* wanted = chosen && chosen->Has(vtkDataObject::FIELD_NAME())
       ? chosen->Get(vtkDataObject::FIELD_NAME())
       : nullptr;

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkCommonDataModel import vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix3x3
@@ -718,6 +718,57 @@ def test_error_names_a_missing_chosen_array(rng):
         in errors.errors[-1]
     )
     assert f.GetOutput().GetNumberOfPoints() == 0
+
+
+def test_error_says_a_selection_of_cell_or_field_data_is_not_contoured(rng):
+    # A selection among the cells' (or the field's) arrays that finds none
+    # there: the message says only point data is contoured, not that a
+    # point array it lists is missing.
+    from vtkmodules.vtkCommonDataModel import vtkDataObject, vtkDataSetAttributes
+
+    image = image_from_array(rng.random((5, 6, 7)))
+    image.GetPointData().GetScalars().SetName("RTData")
+    for association, what in (
+        (vtkDataObject.FIELD_ASSOCIATION_CELLS, "RTData"),
+        (vtkDataObject.FIELD_ASSOCIATION_NONE, "RTData"),
+        (vtkDataObject.FIELD_ASSOCIATION_CELLS, vtkDataSetAttributes.SCALARS),
+    ):
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image)
+        f.SetValue(0, 0.5)
+        f.SetInputArrayToProcess(0, 0, 0, association, what)
+        errors = ErrorObserver(f)
+        f.Update()
+        assert errors.errors, (association, what)
+        assert "only point data can be contoured" in errors.errors[-1], errors.errors[-1]
+        assert "No point array named" not in errors.errors[-1]
+        assert f.GetOutput().GetNumberOfPoints() == 0
+    # Selected among the points, the same array contours.
+    f.SetInputArrayToProcess(0, 0, 0, vtkDataObject.FIELD_ASSOCIATION_POINTS, "RTData")
+    errors = ErrorObserver(f)
+    f.Update()
+    assert not errors.errors and f.GetOutput().GetNumberOfPoints() > 0
+
+
+def test_error_extent_whose_point_count_overflows():
+    # Extents of more points than vtkIdType counts (read as negative) or
+    # one axis longer than an int (read as 0 points): an error, not an
+    # empty output with nothing said.
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+
+    for extent in ((0, 2097152, 0, 2097152, 0, 2097152), (-2**31, 2**31 - 1, 0, 3, 0, 3)):
+        image = vtkImageData()
+        image.SetExtent(*extent)
+        a = numpy_to_vtk(np.linspace(0.0, 1.0, 8), deep=1)
+        a.SetName("s")
+        image.GetPointData().SetScalars(a)
+        f = vtkPreciseMarchingCubes()
+        f.SetInputData(image)
+        f.SetValue(0, 0.5)
+        errors = ErrorObserver(f)
+        f.Update()
+        assert errors.errors and "more than vtkImageData can count" in errors.errors[-1], extent
+        assert f.GetOutput().GetNumberOfPoints() == 0
 
 
 def test_error_bad_array_component(rng):
