@@ -1594,55 +1594,131 @@ int vtkPreciseMarchingCubes::Contour(
   double levelSum = 0.0;
   auto start = std::chrono::steady_clock::now();
   this->UpdateProgress(0.0);
-  for (vtkIdType c = 0; c < numContours; ++c)
-  {
-    progress.Base = static_cast<double>(c) / numContours;
-    progress.Span = 1.0 / numContours;
+  // One extraction of `value` with the options as they stand: the mesh,
+  // its statistics and, with a ghost layer or hidden cells, the triangles
+  // kept. False when it failed (said) or was aborted: the output is then
+  // empty and the run ends. An observer's exception is thrown on.
+  const auto extractOnce = [&](double value, MeshPtr& mesh, pmc_stats& stats,
+                             MeshSelection& selection) -> bool {
     pmc_mesh* raw = nullptr;
-    status = pmc_extract(&volume, values[c], options.get(), &raw);
-    MeshPtr mesh(raw);
+    status = pmc_extract(&volume, value, options.get(), &raw);
+    mesh.reset(raw);
     if (progress.Thrown)
     {
       // Reported by RequestData().
       std::rethrow_exception(progress.Thrown);
     }
+    const char* why = nullptr;
     if (status == PMC_STATUS_ABORTED || (status != PMC_STATUS_OK && this->GetAbortExecute()))
     {
       vtkDebugMacro(<< "Aborted");
-      this->ResetStatistics();
-      output->Initialize();
-      return 1;
     }
-    if (status != PMC_STATUS_OK || !mesh)
+    else if (status != PMC_STATUS_OK || !mesh)
     {
-      vtkErrorMacro(<< "PreciseMC extraction failed for contour value " << values[c] << ": "
-                    << LastError(status));
-      this->ResetStatistics();
-      output->Initialize();
-      return 1;
+      why = "PreciseMC extraction failed for contour value ";
     }
-    pmc_stats stats = pmc_stats();
-    stats.struct_size = sizeof(stats);
-    if ((status = pmc_mesh_stats(mesh.get(), &stats)) != PMC_STATUS_OK)
+    else
     {
-      vtkErrorMacro(<< "Cannot read PreciseMC statistics: " << LastError(status));
-      this->ResetStatistics();
-      output->Initialize();
-      return 1;
-    }
-    MeshSelection& selection = selections[static_cast<size_t>(c)];
-    if (selectCells)
-    {
-      if ((pmc_mesh_point_count(mesh.get()) > 0 && !pmc_mesh_index_points(mesh.get())) ||
+      stats = pmc_stats();
+      stats.struct_size = sizeof(stats);
+      if ((status = pmc_mesh_stats(mesh.get(), &stats)) != PMC_STATUS_OK)
+      {
+        why = "Cannot read PreciseMC statistics for contour value ";
+      }
+      else if (!selectCells)
+      {
+        selection.NumberOfPoints = pmc_mesh_point_count(mesh.get());
+        selection.NumberOfTriangles = pmc_mesh_triangle_count(mesh.get());
+        return true;
+      }
+      else if ((pmc_mesh_point_count(mesh.get()) > 0 && !pmc_mesh_index_points(mesh.get())) ||
         (pmc_mesh_triangle_count(mesh.get()) > 0 &&
           (!pmc_mesh_triangles(mesh.get()) || !pmc_mesh_triangle_levels(mesh.get()))))
       {
-        vtkErrorMacro(<< "PreciseMC returned an incomplete mesh for contour value " << values[c]);
+        status = PMC_STATUS_OK;
+        why = "PreciseMC returned an incomplete mesh for contour value ";
+      }
+      else
+      {
+        SelectCells(mesh.get(), extent, sampleExtent, hidden, dataExtent, selection);
+        return true;
+      }
+    }
+    if (why)
+    {
+      vtkErrorMacro(<< why << value
+                    << (status != PMC_STATUS_OK ? ": " + LastError(status) : std::string()));
+    }
+    this->ResetStatistics();
+    output->Initialize();
+    return false;
+  };
+  for (vtkIdType c = 0; c < numContours; ++c)
+  {
+    progress.Base = static_cast<double>(c) / numContours;
+    progress.Span = 1.0 / numContours;
+    MeshPtr mesh;
+    pmc_stats stats = pmc_stats();
+    MeshSelection& selection = selections[static_cast<size_t>(c)];
+    if (!extractOnce(values[c], mesh, stats, selection))
+    {
+      return 1;
+    }
+    // MaxTriangles caps the output, but the library's cap counted the
+    // triangles of the ghost layer and of hidden cells too, which were
+    // dropped: a higher level may fit. The levels above are tried in turn
+    // while the triangles kept fit, the library's cap raised by the share
+    // dropped at the last level that fitted, and a quarter more (a guard on
+    // time and memory: a level the library must stop short of is not
+    // tried).
+    if (selectCells && stats.budget_reached && selection.NumberOfTriangles > 0 &&
+      selection.NumberOfTriangles < pmc_mesh_triangle_count(mesh.get()))
+    {
+      uint32_t level = stats.effective_max_level;
+      progress.Span = 0.0; // the bar stays where it is
+      while (level < static_cast<uint32_t>(this->MaxLevel))
+      {
+        const double share = static_cast<double>(pmc_mesh_triangle_count(mesh.get())) /
+          static_cast<double>(std::max<vtkTypeUInt64>(selection.NumberOfTriangles, 1));
+        const double guard = std::min(1.25 * share * static_cast<double>(this->MaxTriangles),
+          std::ldexp(1.0, 62));
+        if (pmc_options_set_max_level(options.get(), level + 1) != PMC_STATUS_OK ||
+          pmc_options_set_max_triangles(options.get(), static_cast<uint64_t>(guard)) !=
+            PMC_STATUS_OK)
+        {
+          break;
+        }
+        MeshPtr higher;
+        pmc_stats higherStats = pmc_stats();
+        MeshSelection higherSelection;
+        if (!extractOnce(values[c], higher, higherStats, higherSelection))
+        {
+          return 1;
+        }
+        if (higherStats.effective_max_level != level + 1 ||
+          higherSelection.NumberOfTriangles > this->MaxTriangles)
+        {
+          break;
+        }
+        mesh = std::move(higher);
+        stats = higherStats;
+        selection = std::move(higherSelection);
+        ++level;
+      }
+      stats.budget_reached = level < static_cast<uint32_t>(this->MaxLevel);
+      if ((status = pmc_options_set_max_level(
+             options.get(), static_cast<uint32_t>(this->MaxLevel))) != PMC_STATUS_OK ||
+        (status = pmc_options_set_max_triangles(options.get(), this->MaxTriangles)) !=
+          PMC_STATUS_OK)
+      {
+        vtkErrorMacro(<< "Cannot restore MaxLevel and MaxTriangles: " << LastError(status));
         this->ResetStatistics();
         output->Initialize();
         return 1;
       }
-      SelectCells(mesh.get(), extent, sampleExtent, hidden, dataExtent, selection);
+    }
+    if (selectCells)
+    {
       // The output statistics describe the kept triangles only.
       const uint8_t* triLevels = pmc_mesh_triangle_levels(mesh.get());
       for (vtkIdType t : selection.Triangles)
@@ -1653,8 +1729,6 @@ int vtkPreciseMarchingCubes::Contour(
     }
     else
     {
-      selection.NumberOfPoints = pmc_mesh_point_count(mesh.get());
-      selection.NumberOfTriangles = pmc_mesh_triangle_count(mesh.get());
       this->MaxLevelReached = std::max(this->MaxLevelReached, static_cast<int>(stats.max_level));
       levelSum += stats.mean_level * static_cast<double>(stats.output_triangles);
     }

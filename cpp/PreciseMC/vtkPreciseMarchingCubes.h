@@ -118,9 +118,9 @@
  * @warning
  * The statistics (GetNumberOfMCTriangles() and the like) describe the last
  * execution, summed (or maximised) over the contour values. On a piece
- * contoured with a ghost layer (see above), the counts of the library (all
- * but NumberOfRefinedTriangles, MaxLevelReached and MeanLevel, which
- * describe the output) include the ghost cells.
+ * contoured with a ghost layer or with hidden cells (see above), the counts
+ * of the library (all but NumberOfRefinedTriangles, MaxLevelReached and
+ * MeanLevel, which describe the output) include the ghost and hidden cells.
  *
  * @sa
  * vtkMarchingCubes vtkFlyingEdges3D vtkContourFilter vtkImageTransform
@@ -510,7 +510,11 @@ public:
    * Set/Get a cap on the number of output triangles of each contour value;
    * refinement stops at the highest level that fits (the Marching Cubes
    * triangles are always kept, whatever the cap). 0 (the default) means
-   * no cap but the library's own, 250 million. A piece of a distributed
+   * no cap but the library's own, 250 million. Only the output counts:
+   * the triangles of a piece's ghost layer and of hidden cells, contoured
+   * and dropped, do not (the library's cap counts them, so when it lowers
+   * the level the filter contours again at the levels above, one at a
+   * time, while the triangles kept fit). A piece of a distributed
    * run meets the cap on its own, with its own triangles: two pieces
    * stopping at different levels do not meet along their cut, and the
    * filter warns when the cap lowered the level of a piece (raise the cap,

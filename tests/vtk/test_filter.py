@@ -689,6 +689,71 @@ def test_max_triangles_on_a_piece_warns_of_cracks():
     assert not errors.errors
 
 
+def _blanked_wavelet(rng):
+    from vtkmodules.vtkCommonDataModel import vtkDataSetAttributes, vtkUniformGrid
+
+    grid = vtkUniformGrid()
+    grid.DeepCopy(wavelet(8))
+    blocks = rng.random((4, 4, 4)) < 0.5  # hidden 4x4x4 blocks of cells
+    hide = np.kron(blocks, np.ones((4, 4, 4), dtype=bool)).ravel()
+    flags = np.where(hide, vtkDataSetAttributes.HIDDENCELL, 0).astype(np.uint8)
+    ghosts = numpy_to_vtk(flags, deep=1, array_type=3)  # VTK_UNSIGNED_CHAR
+    ghosts.SetName("vtkGhostType")
+    grid.GetCellData().AddArray(ghosts)
+    return grid
+
+
+@pytest.mark.parametrize("case", ["hidden cells", "pieces"])
+def test_max_triangles_counts_the_triangles_kept(case, rng):
+    """MaxTriangles caps the output: the triangles of hidden cells and of a
+    piece's ghost layer, contoured and dropped, do not count. A cap equal
+    to the output at some level gives exactly that level's output (before,
+    a cap the uncapped output fitted lowered a blanked grid to plain
+    Marching Cubes, and pieces by one or two levels), never more triangles
+    than the cap, and BudgetReached only when the level was lowered."""
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    if case == "hidden cells":
+        grid = _blanked_wavelet(rng)
+        runs = [(None, grid)]
+    else:
+        source = vtkRTAnalyticSource()
+        source.SetWholeExtent(-8, 8, -8, 8, -8, 8)
+        runs = [(piece, source) for piece in range(4)]
+    for piece, data in runs:
+        def run(**settings):
+            f = vtkPreciseMarchingCubes()
+            if piece is None:
+                f.SetInputData(data)
+            else:
+                f.SetInputConnection(data.GetOutputPort())
+            f.SetValue(0, 150.0)
+            f.SetEpsilon(0.002)
+            for name, value in settings.items():
+                getattr(f, "Set" + name)(value)
+            errors = ErrorObserver(f)
+            if piece is None:
+                f.Update()
+            else:
+                f.UpdatePiece(piece, 4, 0)
+            assert not errors.errors
+            return f, coordinate_triangles(f.GetOutput())
+
+        at_level = [run(MaxLevel=level) for level in range(6)]
+        counts = [len(tris) for _, tris in at_level]
+        assert counts[0] < counts[-1], counts
+        tried = 0
+        for level in range(6):
+            for cap in (counts[level], counts[level] + 1):
+                f, tris = run(MaxLevel=5, MaxTriangles=cap)
+                fits = max(l for l in range(6) if counts[l] <= cap)
+                assert len(tris) <= cap
+                assert np.array_equal(tris, at_level[fits][1]), (piece, level, cap, fits)
+                assert f.GetBudgetReached() == (counts[fits] < counts[-1])
+                tried += counts[fits] < counts[-1]
+        assert tried > 0
+
+
 def test_error_no_scalars():
     from vtkmodules.vtkCommonDataModel import vtkImageData
 
