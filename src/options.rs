@@ -84,13 +84,20 @@ pub enum Reconstruction {
     /// default.
     #[default]
     Trilinear,
-    /// Tricubic Catmull–Rom: interpolating, C1, exact on quadratics.
+    /// Tricubic Catmull–Rom: interpolating, C1, exact on quadratics away
+    /// from the volume's border (each cubic filter reads a 4x4x4
+    /// neighbourhood, with the border samples repeated beyond the volume:
+    /// in the border cells it is none of these; a plane there is off by
+    /// up to about 0.06 cells).
     CatmullRom,
     /// Tricubic B-spline of the samples: C2, smoothing (does not pass
-    /// through the samples), exact on linear functions.
+    /// through the samples), exact on linear functions away from the
+    /// volume's border (there, as for [`Reconstruction::CatmullRom`]: a
+    /// plane is off by up to about 0.13 cells in the border cells).
     BSpline,
     /// Tricubic B-spline through the samples (prefiltered coefficients,
-    /// one `f64` copy of the volume): C2 and interpolating.
+    /// one `f64` copy of the volume): C2 and interpolating (the border as
+    /// for [`Reconstruction::CatmullRom`]).
     BSplineInterpolating,
 }
 

@@ -448,10 +448,16 @@ pub(crate) fn solve(
     }
     // Residual small enough for any use (values are f64 samples).
     let tol = 1e-14 * qa.abs().max(qb.abs());
+    // The bracket is narrow enough relative to itself and to its ends, not
+    // to 1: a line parametrised by the gradient (see `test_from`) brackets
+    // roots within 1e-9 of 0 on data of magnitude 1e9, and a width absolute
+    // in that parameter ended the search after one step, 4.5e-4 cells
+    // off `S_K` (from 1e18 up).
+    let w0 = (b - a).abs();
     let mut side = 0i8;
     for it in 0..200 {
         let width = (b - a).abs();
-        if width <= 1e-15 * (1.0 + a.abs().max(b.abs())) {
+        if width <= 1e-15 * (w0 + a.abs().max(b.abs())) {
             break;
         }
         let mut t = (a * qb - b * qa) / (qb - qa);
