@@ -48,6 +48,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <limits>
@@ -929,6 +930,10 @@ int vtkPreciseMarchingCubes::Contour(
       for (int i = 0; i < pd->GetNumberOfArrays(); ++i)
       {
         const char* n = pd->GetArrayName(i);
+        if (n && std::strcmp(n, vtkDataSetAttributes::GhostArrayName()) == 0)
+        {
+          continue; // the pipeline's, never contoured
+        }
         names += std::string(names.empty() ? "" : ", ") + (n ? n : "(unnamed)");
       }
       vtkErrorMacro(<< "No point array named '" << wanted << "' to contour (the input's point "

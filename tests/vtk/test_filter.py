@@ -772,6 +772,10 @@ def test_error_names_a_missing_chosen_array(rng):
     # another dataset): the message names it and the arrays there are.
     image = image_from_array(rng.random((5, 6, 7)))
     image.GetPointData().GetScalars().SetName("RTData")
+    # A point ghost array (a piece's) is the pipeline's: not listed.
+    ghosts = numpy_to_vtk(np.zeros(5 * 6 * 7, dtype=np.uint8), deep=1, array_type=3)
+    ghosts.SetName("vtkGhostType")
+    image.GetPointData().AddArray(ghosts)
     f = vtkPreciseMarchingCubes()
     f.SetInputData(image)
     f.SetValue(0, 0.5)
