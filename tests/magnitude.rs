@@ -46,7 +46,10 @@ fn split_points_stay_on_sk_whatever_the_magnitude() {
             (farthest_from_sk(&v, dims, &mesh), mesh)
         };
         let (d1, reference) = run(1.0);
-        assert!(reference.stats.split_points > 100, "seed {seed}: too little refined");
+        assert!(
+            reference.stats.split_points > 100,
+            "seed {seed}: too little refined"
+        );
         assert!(d1 < 1e-10, "seed {seed}: {d1}");
         // Any factor: as close to S_K (the old search left points 4.5e-4
         // cells off from 1e18 up).
@@ -54,8 +57,15 @@ fn split_points_stay_on_sk_whatever_the_magnitude() {
         factors.push(rng.log_uniform(1e3, 1e70));
         for s in factors {
             let (d, mesh) = run(s);
-            assert!(d < 1e-10, "seed {seed} {rule:?}, values x {s:e}: {d} cells off S_K");
-            assert_eq!(mesh.triangles.len(), reference.triangles.len(), "values x {s:e}");
+            assert!(
+                d < 1e-10,
+                "seed {seed} {rule:?}, values x {s:e}: {d} cells off S_K"
+            );
+            assert_eq!(
+                mesh.triangles.len(),
+                reference.triangles.len(),
+                "values x {s:e}"
+            );
         }
         // Powers of two: the same mesh.
         for k in [10, 30, 60, 100, 200, -10, -100] {
@@ -85,7 +95,10 @@ fn cubic_filters_split_points_do_not_depend_on_a_power_of_two() {
         let reference = run(1.0);
         for k in [40, 100] {
             let mesh = run(2f64.powi(k));
-            assert_eq!(mesh.index_points, reference.index_points, "{reconstruction:?} 2^{k}");
+            assert_eq!(
+                mesh.index_points, reference.index_points,
+                "{reconstruction:?} 2^{k}"
+            );
         }
     }
 }
