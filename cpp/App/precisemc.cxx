@@ -336,7 +336,8 @@ void Configure(vtkPreciseMarchingCubes* f, const pmcapp::Options& o, bool levels
   {
     f->SetNormalMode(o.Normals);
   }
-  f->SetComputeGradients(o.Gradients);
+  // Only a written surface holds the gradients (see main()).
+  f->SetComputeGradients(o.Gradients && !o.Output.empty());
   f->SetMaxTriangles(static_cast<vtkTypeUInt64>(o.MaxTriangles));
   f->SetNumberOfThreads(o.Threads);
   f->SetUseSMPTools(o.SMP);
@@ -442,6 +443,14 @@ int main(int argc, char* argv[])
       return several ? pmcapp::WithSuffix(path, name) : path;
     };
     const std::vector<std::string> names = several ? samples : std::vector<std::string>{ "" };
+    if (o.Gradients && o.Output.empty() && !o.Quiet)
+    {
+      // The array would be computed and dropped (the table does not
+      // show it): said, and not computed.
+      std::cerr << "precisemc: warning: --gradients without -o: no surface is written, so "
+                   "no gradients are computed"
+                << std::endl;
+    }
     if (!o.Output.empty())
     {
       pmcapp::CheckSurfaceFormat(o.Output);

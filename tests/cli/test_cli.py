@@ -598,6 +598,10 @@ def explicit_values_and_filter_options():
         ok("--sample", "tube", "--gradients", "-o", os.path.join(d, "g." + ext),
            warns=f'{ext} holds no "Gradients" array')
         ok("--sample", "tube", "--gradients", "-q", "-o", os.path.join(d, "q." + ext))
+    # Without -o nothing would hold the array: said (it was computed and
+    # dropped without a word), not with -q.
+    ok("--sample", "tube", "--gradients", warns="--gradients without -o")
+    ok("--sample", "tube", "--gradients", "-q")
     for rule in ("A", "a1", "A2", "b"):
         ok("--sample", "tube", "--rule", rule, "-q")
     r = ok("--sample", "atoms", "--max-triangles", "4000")
