@@ -38,38 +38,32 @@ pub(crate) fn assemble(
     sum_counters(&outs, passes_wall, stats);
     let n = outs.len();
 
-    // Each slab's lowest and highest point plane (z in index space).
-    let planes: Vec<(f64, f64)> = if n == 1 {
-        Vec::new()
-    } else {
-        exec.map(outs.iter().collect(), |o| {
-            o.verts
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(v.z), hi.max(v.z))
-                })
-        })?
-    };
     // Points of a slab's bottom plane that the slab before holds on its
-    // top plane: (id here, id there), in increasing id here.
+    // top plane: (id here, id there), in increasing id here. Only the
+    // points made in the slabs' cell layers next to the plane can lie on
+    // it (see `SlabOut::first_layer_verts`).
     let links: Vec<Vec<(u32, u32)>> = exec.map((0..n).collect(), |s| {
-        if s == 0 || planes[s - 1].1 != planes[s].0 {
+        if s == 0 || outs[s - 1].z_range.1 != outs[s].z_range.0 {
             return Vec::new();
         }
-        let plane = planes[s].0;
+        let plane = outs[s].z_range.0;
+        let below = &outs[s - 1];
+        let top = below.before_last_layer_verts.min(below.verts.len());
+        let on_top = || {
+            below.verts[top..]
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.z == plane)
+                .map(|(i, v)| (key(*v), (top + i) as u32))
+        };
         // Sized up front: growing it rehashed the map several times a
         // plane (a quarter of the linking's time on the EPI scan of the
         // benchmark cut into nine slabs).
-        let on_plane = outs[s - 1].verts.iter().filter(|v| v.z == plane).count();
         let mut before: KeyMap<u32> =
-            KeyMap::with_capacity_and_hasher(on_plane, Default::default());
-        for (i, v) in outs[s - 1].verts.iter().enumerate() {
-            if v.z == plane {
-                before.insert(key(*v), i as u32);
-            }
-        }
-        outs[s]
-            .verts
+            KeyMap::with_capacity_and_hasher(on_top().count(), Default::default());
+        before.extend(on_top());
+        let here = &outs[s].verts;
+        here[..outs[s].first_layer_verts.min(here.len())]
             .iter()
             .enumerate()
             .filter(|(_, v)| v.z == plane)
@@ -84,22 +78,29 @@ pub(crate) fn assemble(
         .map(|s| outs[s].verts.len() - links[s].len())
         .collect();
     let starts = offsets(&fresh);
-    // (One slab: its points are taken over in place, below.)
-    let total_fresh = fresh.iter().sum();
+    // The first slab's points are the first of the mesh's, taken over in
+    // place (all of them for one slab, below), the others' written after.
+    let total_fresh: usize = fresh.iter().sum();
     let mut index_points = if n == 1 {
         Vec::new()
     } else {
-        room(&recycle::POINTS, total_fresh)?
+        let mut first = recycle::dvec3_as_points(std::mem::take(&mut outs[0].verts));
+        let more = total_fresh - first.len();
+        reserve(&mut first, more)?;
+        first
     };
     let mut remaps: Vec<Vec<u64>> = if n == 1 {
         vec![Vec::new()]
     } else {
+        let mut parts = fresh.clone();
+        parts[0] = 0;
+        let first_len = index_points.len();
         let items = outs
             .iter()
             .zip(&links)
             .zip(split_mut(
-                &mut index_points.spare_capacity_mut()[..total_fresh],
-                &fresh,
+                &mut index_points.spare_capacity_mut()[..total_fresh - first_len],
+                &parts,
             ))
             .zip(&starts)
             .collect();
@@ -128,9 +129,10 @@ pub(crate) fn assemble(
             assert_eq!(w, out.len(), "a slab's part of the points left unwritten");
             remap
         })?;
-        // SAFETY: every part of the first `total_fresh` spare slots was
-        // written in full (`exec.map` returned Ok: every task ran, and each
-        // checked its count).
+        // SAFETY: every part of the spare slots up to `total_fresh` points
+        // was written in full (`exec.map` returned Ok: every task ran, and
+        // each checked its count; the first slab's part is empty, its
+        // points already in place).
         unsafe { index_points.set_len(total_fresh) };
         remaps
     };
@@ -243,12 +245,13 @@ pub(crate) fn assemble(
         recycle::REMAPS.give(r);
     }
     if n == 1 {
-        // The slab's points become the mesh's, in place; a large slack
-        // (the slab reserves for a generous guess) is given back.
+        // The slab's points become the mesh's, in place.
         index_points = recycle::dvec3_as_points(std::mem::take(&mut outs[0].verts));
-        if index_points.capacity() > 2 * index_points.len() + (1 << 16) {
-            index_points.shrink_to_fit();
-        }
+    }
+    // A large slack (the first slab reserves for a generous guess) is
+    // given back.
+    if index_points.capacity() > 2 * index_points.len() + (1 << 16) {
+        index_points.shrink_to_fit();
     }
     for o in outs {
         recycle::POINTS.give(recycle::dvec3_as_points(o.verts));

@@ -389,6 +389,17 @@ pub(crate) struct SlabOut {
     /// reported done.
     pub reported: u64,
     pub layers: u64,
+    /// The planes `z = k0` and `z = k1` (index space, offset included)
+    /// that bound the slab's cell layers `k0..k1`: its points lie between.
+    pub z_range: (f64, f64),
+    /// Points made while the first cell layer was meshed: every point on
+    /// the slab's bottom plane `z = k0` is among them (no other layer's
+    /// cells touch that plane), so welding to the slab below looks no
+    /// further.
+    pub first_layer_verts: usize,
+    /// Points made before the last cell layer was meshed: every point on
+    /// the top plane `z = k1` comes after them.
+    pub before_last_layer_verts: usize,
 }
 
 impl SlabOut {
@@ -988,7 +999,14 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     // reading it, so they are not cleared from cell to cell.
     let mut ids = [u32::MAX; 16];
     let mut loc = [DVec3::ZERO; 16];
+    let plane_z = |k: usize| (sh.index_offset[2] + k as i64) as f64;
+    out.z_range = (plane_z(k0), plane_z(k1));
+    // Until the layers below say otherwise (a pass cut short): every point.
+    out.first_layer_verts = usize::MAX;
     'layers: for k in k0..k1 {
+        if k + 1 == k1 {
+            out.before_last_layer_verts = out.verts.len();
+        }
         let (lo, hi) = (k & 1, (k + 1) & 1);
         if sh.cancel.load(Ordering::Relaxed) || sh.over_cap.load(Ordering::Relaxed) {
             break 'layers;
@@ -1755,6 +1773,9 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     break 'layers;
                 }
             }
+        }
+        if k == k0 {
+            out.first_layer_verts = out.verts.len();
         }
         sh.layers_done.fetch_add(1, Ordering::Relaxed);
         out.layers += 1;
