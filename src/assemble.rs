@@ -179,11 +179,6 @@ pub(crate) fn assemble(
     let found: Vec<(Vec<Candidate>, Vec<usize>)> =
         exec.map(items, |(((((o, r), &start), tri_out), level_out), &t0)| {
             let mut degenerate = Vec::new();
-            let mut note = |w: usize, g: [u64; 3]| {
-                if g[0] == g[1] || g[1] == g[2] || g[0] == g[2] {
-                    degenerate.push(t0 + w);
-                }
-            };
             assert_eq!(
                 tri_out.len(),
                 o.tris.len(),
@@ -197,16 +192,25 @@ pub(crate) fn assemble(
                 for (g, &v) in flat_uninit_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
                     g.write(start + v as u64);
                 }
-                for (w, t) in o.tris.iter().enumerate() {
-                    if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                        note(w, t.map(|v| start + v as u64));
-                    }
-                }
+                // A shift keeps distinct ids distinct.
+                find_degenerate(&o.tris, t0, &mut degenerate);
             } else {
-                for (w, t) in o.tris.iter().enumerate() {
-                    let g = t.map(|v| global(r, start, v));
-                    tri_out[w].write(g);
-                    note(w, g);
+                let chunks = o.tris.chunks(DEGENERATE_CHUNK);
+                for (c, (tris, out)) in chunks.zip(tri_out.chunks_mut(DEGENERATE_CHUNK)).enumerate()
+                {
+                    let mut any = false;
+                    for (w, t) in out.iter_mut().zip(tris) {
+                        let g = t.map(|v| global(r, start, v));
+                        any |= is_degenerate(&g);
+                        w.write(g);
+                    }
+                    if any {
+                        let g: Vec<_> = tris
+                            .iter()
+                            .map(|t| t.map(|v| global(r, start, v)))
+                            .collect();
+                        note_degenerate(&g, t0 + c * DEGENERATE_CHUNK, &mut degenerate);
+                    }
                 }
             }
             let cand = o
@@ -280,7 +284,13 @@ pub(crate) fn assemble(
     }
     let (max, sum) = exec
         .map(levels.chunks(1 << 16).collect(), |c| {
-            c.iter().fold((0, 0), |(m, s), &l| (m.max(l), s + l as u64))
+            // Two plain reductions, which the compiler turns into vector
+            // code (one fold of both ran element by element: 12 us on the
+            // 21 000 triangles of Marschner-Lobb 41^3). A chunk's sum fits
+            // 32 bits: 2^16 levels of at most 255.
+            let max = c.iter().copied().max().unwrap_or(0);
+            let sum: u32 = c.iter().map(|&l| u32::from(l)).sum();
+            (max, u64::from(sum))
         })?
         .into_iter()
         .fold((0u8, 0u64), |a, b| (a.0.max(b.0), a.1 + b.1));
@@ -311,6 +321,47 @@ fn flat_uninit_mut<T>(triangles: &mut [MaybeUninit<[T; 3]>]) -> &mut [MaybeUnini
     // SAFETY: `MaybeUninit<[T; 3]>` is laid out as `[T; 3]`, so as three
     // `MaybeUninit<T>`; the borrow is handed on whole.
     unsafe { std::slice::from_raw_parts_mut(triangles.as_mut_ptr().cast(), triangles.len() * 3) }
+}
+
+/// Triangles whose repeated points are looked for together (see
+/// [`any_degenerate`]).
+const DEGENERATE_CHUNK: usize = 64;
+
+/// Whether triangle `t` repeats a point; without branches.
+#[inline(always)]
+fn is_degenerate<T: PartialEq>(t: &[T; 3]) -> bool {
+    (t[0] == t[1]) | (t[1] == t[2]) | (t[0] == t[2])
+}
+
+/// Whether any of `tris` repeats a point: a test without branches, which
+/// the compiler turns into vector code (a branch a triangle cost 20-35 us
+/// of a 0.46 ms call on the 21 000 triangles of Marschner-Lobb 41^3, where
+/// there is none).
+#[inline]
+fn any_degenerate<T: PartialEq>(tris: &[[T; 3]]) -> bool {
+    tris.iter().fold(false, |any, t| any | is_degenerate(t))
+}
+
+/// Appends to `out`, in increasing order, the indices (from `first`) of
+/// the triangles of `tris` that repeat a point: chunk by chunk, looking
+/// at each triangle of a chunk only when [`any_degenerate`] finds one.
+fn find_degenerate<T: PartialEq>(tris: &[[T; 3]], first: usize, out: &mut Vec<usize>) {
+    for (c, chunk) in tris.chunks(DEGENERATE_CHUNK).enumerate() {
+        if any_degenerate(chunk) {
+            note_degenerate(chunk, first + c * DEGENERATE_CHUNK, out);
+        }
+    }
+}
+
+/// Appends to `out` the indices (from `first`) of the triangles of `tris`
+/// that repeat a point.
+fn note_degenerate<T: PartialEq>(tris: &[[T; 3]], first: usize, out: &mut Vec<usize>) {
+    out.extend(
+        tris.iter()
+            .enumerate()
+            .filter(|(_, t)| is_degenerate(t))
+            .map(|(k, _)| first + k),
+    );
 }
 
 /// Removes the points no triangle uses, keeping the others' order.
@@ -533,6 +584,43 @@ mod tests {
         }
         uses.retain(|_, u| *u != 0);
         uses
+    }
+
+    /// The chunked search for triangles with a repeated point finds what a
+    /// plain scan finds, wherever they lie (chunk edges, a short last
+    /// chunk) and whichever two corners repeat.
+    #[test]
+    fn degenerate_triangles_are_all_found_in_order() {
+        let mut rng = crate::test_rng::XorShift(0x9e37_79b9_7f4a_7c15);
+        let mut next = |n: u64| rng.below(n);
+        for _ in 0..300 {
+            let len = next(4 * DEGENERATE_CHUNK as u64 + 3) as usize;
+            let mut tris: Vec<[u32; 3]> = (0..len as u32)
+                .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+                .collect();
+            for _ in 0..next(5) {
+                if len == 0 {
+                    break;
+                }
+                let t = &mut tris[next(len as u64) as usize];
+                let (a, b) = [(0, 1), (1, 2), (0, 2)][next(3) as usize];
+                t[b] = t[a];
+            }
+            let first = next(1000) as usize;
+            let mut found = vec![7];
+            find_degenerate(&tris, first, &mut found);
+            let want: Vec<usize> = std::iter::once(7)
+                .chain(
+                    (0..len)
+                        .filter(|&k| {
+                            let t = tris[k];
+                            t[0] == t[1] || t[1] == t[2] || t[0] == t[2]
+                        })
+                        .map(|k| first + k),
+                )
+                .collect();
+            assert_eq!(found, want);
+        }
     }
 
     /// Copies of one triangle in both orientations, spread over a mesh of
