@@ -56,18 +56,25 @@ pub(crate) fn assemble(
                 .filter(|(_, v)| v.z == plane)
                 .map(|(i, v)| (key(*v), (top + i) as u32))
         };
+        let here = &outs[s].verts;
+        let on_bottom = || {
+            here[..outs[s].first_layer_verts.min(here.len())]
+                .iter()
+                .enumerate()
+                .filter(|(_, v)| v.z == plane)
+                .map(|(i, v)| (key(*v), i as u32))
+        };
+        if let Some(links) = link_in_step(on_bottom(), on_top()) {
+            return links;
+        }
         // Sized up front: growing it rehashed the map several times a
         // plane (a quarter of the linking's time on the EPI scan of the
         // benchmark cut into nine slabs).
         let mut before: KeyMap<u32> =
             KeyMap::with_capacity_and_hasher(on_top().count(), Default::default());
         before.extend(on_top());
-        let here = &outs[s].verts;
-        here[..outs[s].first_layer_verts.min(here.len())]
-            .iter()
-            .enumerate()
-            .filter(|(_, v)| v.z == plane)
-            .filter_map(|(i, v)| before.get(&key(*v)).map(|&j| (i as u32, j)))
+        on_bottom()
+            .filter_map(|(k, i)| before.get(&k).map(|&j| (i, j)))
             .collect()
     })?;
 
@@ -307,6 +314,29 @@ pub(crate) fn assemble(
         levels,
         ..Mesh::default()
     })
+}
+
+/// The links between the points of a plane as two slabs list them
+/// (`(key, id)`, each in the order the slab made them), when both lists
+/// hold the same keys in the same order: `(id here, id below)` for each.
+/// `None` when they differ anywhere (then a map of keys matches them).
+/// Without refinement they agree: the cells on either side of the plane
+/// make its points in the same order, edge by edge as the layer's cells
+/// first touch them; refined points on the plane come in the order of
+/// each side's own tree walk. (Keys are unique within a slab, so the pairs
+/// are those the map would give.)
+fn link_in_step(
+    here: impl Iterator<Item = ([u64; 3], u32)>,
+    mut below: impl Iterator<Item = ([u64; 3], u32)>,
+) -> Option<Vec<(u32, u32)>> {
+    let mut links = Vec::with_capacity(here.size_hint().0);
+    for (k, i) in here {
+        match below.next() {
+            Some((kb, j)) if kb == k => links.push((i, j)),
+            _ => return None,
+        }
+    }
+    below.next().is_none().then_some(links)
 }
 
 /// The ids of `triangles` in one run (`<[T; 3]>::as_flattened`, which is
@@ -584,6 +614,50 @@ mod tests {
         }
         uses.retain(|_, u| *u != 0);
         uses
+    }
+
+    /// Two lists of a plane's points link in step only when they hold the
+    /// same keys in the same order: then each pair is what a map of keys
+    /// gives; any missing, extra or reordered point defers to the map.
+    #[test]
+    fn plane_points_link_in_step_only_when_the_lists_agree() {
+        let mut rng = crate::test_rng::XorShift(0x51_7cc1_b727_220a);
+        let mut next = |n: u64| rng.below(n);
+        for _ in 0..300 {
+            let n = next(12) as usize;
+            let keys: Vec<[u64; 3]> = (0..n as u64).map(|k| [k * 7 + 1, k, 3]).collect();
+            let below: Vec<([u64; 3], u32)> = keys
+                .iter()
+                .enumerate()
+                .map(|(j, &k)| (k, 100 + 2 * j as u32))
+                .collect();
+            let mut here: Vec<([u64; 3], u32)> = keys
+                .iter()
+                .enumerate()
+                .map(|(i, &k)| (k, 5 + 3 * i as u32))
+                .collect();
+            let by_map: Vec<(u32, u32)> = here
+                .iter()
+                .map(|&(k, i)| (i, below.iter().find(|b| b.0 == k).unwrap().1))
+                .collect();
+            let linked = link_in_step(here.iter().copied(), below.iter().copied());
+            assert_eq!(linked.as_deref(), Some(&by_map[..]));
+            match next(3) {
+                0 if n > 0 => {
+                    here.remove(next(n as u64) as usize);
+                }
+                1 => here.insert(next(n as u64 + 1) as usize, ([9, 9, 9], 1)),
+                _ if n > 1 => {
+                    let a = next(n as u64 - 1) as usize;
+                    here.swap(a, a + 1);
+                }
+                _ => continue,
+            }
+            assert_eq!(
+                link_in_step(here.iter().copied(), below.iter().copied()),
+                None
+            );
+        }
     }
 
     /// The chunked search for triangles with a repeated point finds what a
