@@ -96,6 +96,10 @@ pub(crate) fn assemble(
         reserve(&mut first, more)?;
         first
     };
+    // A slab's point ids become the mesh's through its table below the
+    // table's length (its first cell layer's points, where those linked to
+    // the slab before are), by its shift above (see `global`).
+    let mut shifts: Vec<u64> = starts.iter().map(|&s| s as u64).collect();
     let mut remaps: Vec<Vec<u64>> = if n == 1 {
         vec![Vec::new()]
     } else {
@@ -118,35 +122,51 @@ pub(crate) fn assemble(
                 }
                 return Vec::new();
             }
-            let mut remap = recycle::REMAPS.take(o.verts.len());
-            remap.reserve_exact(o.verts.len());
+            // Links are made only in the first layer (see `links`).
+            let first = o.first_layer_verts.min(o.verts.len());
+            let mut table = recycle::REMAPS.take(first);
+            table.reserve_exact(first);
             let (mut l, mut w) = (0, 0);
-            for (i, v) in o.verts.iter().enumerate() {
+            for (i, v) in o.verts[..first].iter().enumerate() {
                 if l < link.len() && link[l].0 as usize == i {
                     // Filled in below, once the slab before is numbered.
-                    remap.push(u64::MAX);
+                    table.push(u64::MAX);
                     l += 1;
                 } else {
                     out[w].write(v.to_array());
-                    remap.push((start + w) as u64);
+                    table.push((start + w) as u64);
                     w += 1;
                 }
             }
+            assert_eq!(l, link.len(), "a slab's link beyond its first layer");
+            // The others in one run, in order.
+            for (d, v) in out[w..].iter_mut().zip(&o.verts[first..]) {
+                d.write(v.to_array());
+            }
             // Every point is either linked or written: the part is full.
-            assert_eq!(w, out.len(), "a slab's part of the points left unwritten");
-            remap
+            assert_eq!(
+                w + (o.verts.len() - first),
+                out.len(),
+                "a slab's part of the points left unwritten"
+            );
+            table
         })?;
         // SAFETY: every part of the spare slots up to `total_fresh` points
         // was written in full (`exec.map` returned Ok: every task ran, and
         // each checked its count; the first slab's part is empty, its
         // points already in place).
         unsafe { index_points.set_len(total_fresh) };
+        // Above its table, a slab with links has every one of them before
+        // each point: point `v` is fresh point `v - links` of the slab.
+        for s in 0..n {
+            shifts[s] = shifts[s].wrapping_sub(links[s].len() as u64);
+        }
         remaps
     };
     for s in 1..n {
         let (done, rest) = remaps.split_at_mut(s);
         for &(i, j) in &links[s] {
-            rest[0][i as usize] = global(&done[s - 1], starts[s - 1], j);
+            rest[0][i as usize] = global(&done[s - 1], shifts[s - 1], j);
         }
     }
 
@@ -175,7 +195,7 @@ pub(crate) fn assemble(
     let items = outs
         .iter()
         .zip(&remaps)
-        .zip(&starts)
+        .zip(&shifts)
         .zip(split_mut(
             &mut triangles.spare_capacity_mut()[..total_tris],
             &counts,
@@ -184,7 +204,7 @@ pub(crate) fn assemble(
         .zip(&tri_starts)
         .collect();
     let found: Vec<(Vec<Candidate>, Vec<usize>)> =
-        exec.map(items, |(((((o, r), &start), tri_out), level_out), &t0)| {
+        exec.map(items, |(((((o, r), &shift), tri_out), level_out), &t0)| {
             let mut degenerate = Vec::new();
             assert_eq!(
                 tri_out.len(),
@@ -195,9 +215,8 @@ pub(crate) fn assemble(
                 // Numbered by a shift alone (most volumes' slabs, and every
                 // single slab): the ids are shifted as flat arrays, which
                 // the compiler turns into vector code (not so the triples).
-                let start = start as u64;
                 for (g, &v) in flat_uninit_mut(tri_out).iter_mut().zip(flat(&o.tris)) {
-                    g.write(start + v as u64);
+                    g.write(shift + v as u64);
                 }
                 // A shift keeps distinct ids distinct.
                 find_degenerate(&o.tris, t0, &mut degenerate);
@@ -207,14 +226,14 @@ pub(crate) fn assemble(
                 {
                     let mut any = false;
                     for (w, t) in out.iter_mut().zip(tris) {
-                        let g = t.map(|v| global(r, start, v));
+                        let g = t.map(|v| global(r, shift, v));
                         any |= is_degenerate(&g);
                         w.write(g);
                     }
                     if any {
                         let g: Vec<_> = tris
                             .iter()
-                            .map(|t| t.map(|v| global(r, start, v)))
+                            .map(|t| t.map(|v| global(r, shift, v)))
                             .collect();
                         note_degenerate(&g, t0 + c * DEGENERATE_CHUNK, &mut degenerate);
                     }
@@ -225,7 +244,7 @@ pub(crate) fn assemble(
                 .iter()
                 .map(|&w| {
                     let t = o.tris[w as usize];
-                    (t0 + w as usize, t.map(|v| global(r, start, v)))
+                    (t0 + w as usize, t.map(|v| global(r, shift, v)))
                 })
                 .filter(|&(i, _)| degenerate.binary_search(&i).is_err())
                 .map(|(i, g)| Candidate::new(i, g))
@@ -553,14 +572,25 @@ fn remove_duplicate_triangles(
     levels.truncate(w);
 }
 
-/// The output id of a slab's point `v`: from the slab's table, or, when it
-/// has none, the slab's `start` plus `v`.
+/// The output id of a slab's point `v`: from the slab's `table` below its
+/// length (its first layer's points, when some are linked to the slab
+/// before), else `shift + v` (wrapping: a shift less the links can be
+/// negative, never the id). The table entry is read whether used or not,
+/// so the choice is a select, not a branch: the triangles of the second
+/// layer mix points on either side of the table's end, and a branch per
+/// corner mispredicted there (26 us on Marschner-Lobb's two slabs).
 #[inline(always)]
-fn global(remap: &[u64], start: usize, v: u32) -> u64 {
-    if remap.is_empty() {
-        (start + v as usize) as u64
+fn global(table: &[u64], shift: u64, v: u32) -> u64 {
+    let shifted = shift.wrapping_add(v as u64);
+    let Some(last) = table.len().checked_sub(1) else {
+        return shifted;
+    };
+    let i = v as usize;
+    let listed = table[i.min(last)];
+    if i <= last {
+        listed
     } else {
-        remap[v as usize]
+        shifted
     }
 }
 

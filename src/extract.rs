@@ -2206,6 +2206,17 @@ mod tests {
         min_slab_cells: u64,
         executor: Option<&dyn Executor>,
     ) -> Mesh {
+        run_in_layers(v, topology, threads, min_slab_cells, 1, executor)
+    }
+
+    fn run_in_layers(
+        v: &Volume<'_>,
+        topology: Topology,
+        threads: usize,
+        min_slab_cells: u64,
+        min_slab_layers: usize,
+        executor: Option<&dyn Executor>,
+    ) -> Mesh {
         let o = Options {
             threads,
             ..Options::marching_cubes(topology)
@@ -2213,7 +2224,7 @@ mod tests {
         let mut go = |_| ControlFlow::Continue(());
         let how = How {
             min_slab_cells,
-            min_slab_layers: 1,
+            min_slab_layers,
             min_helper_cells: 0,
             world_points: true,
             executor,
@@ -2276,6 +2287,14 @@ mod tests {
                     assert!(
                         bits(&cut) == bits(&whole),
                         "{offset:?} {topology:?}: {threads} threads, small slabs"
+                    );
+                    // Slabs of several layers: points linked across a plane
+                    // lie in a slab's first layer only, and the ones above
+                    // it are numbered by a shift.
+                    let thick = run_in_layers(&v, topology, threads, 1, 3, None);
+                    assert!(
+                        bits(&thick) == bits(&whole),
+                        "{offset:?} {topology:?}: {threads} threads, slabs of 3 layers"
                     );
                     let ex = crate::par::tests::Scrambled {
                         threads,
