@@ -298,7 +298,7 @@ pub(crate) fn assemble(
     if stats.cells_on_subcells > 0 {
         // A cell meshed again on sub-cells drops the Marching Cubes point
         // inside it, made before its refinement.
-        drop_unused_points(&mut index_points, &mut triangles);
+        drop_unused_points(&mut index_points, &mut triangles, exec)?;
     }
 
     // World coordinates.
@@ -412,29 +412,44 @@ fn note_degenerate<T: PartialEq>(tris: &[[T; 3]], first: usize, out: &mut Vec<us
     );
 }
 
-/// Removes the points no triangle uses, keeping the others' order.
-fn drop_unused_points(points: &mut Vec<[f64; 3]>, triangles: &mut [[u64; 3]]) {
-    let mut new_id = vec![u64::MAX; points.len()];
-    for t in triangles.iter() {
-        for &v in t {
-            new_id[v as usize] = 0;
+/// Removes the points no triangle uses, keeping the others' order. The
+/// passes over the triangles run on `exec`, a chunk a task: one cell meshed
+/// again on sub-cells sends a whole mesh through here (on the atoms sample
+/// of the throughput table, 750 000 triangles, about 4 % of the call on 2
+/// threads when they ran serially).
+fn drop_unused_points(
+    points: &mut Vec<[f64; 3]>,
+    triangles: &mut [[u64; 3]],
+    exec: Exec<'_>,
+) -> Result<(), Error> {
+    use std::sync::atomic::{AtomicBool, Ordering::Relaxed};
+    const CHUNK: usize = 1 << 16;
+    let used: Vec<AtomicBool> = (0..points.len()).map(|_| AtomicBool::new(false)).collect();
+    exec.map(triangles.chunks(CHUNK).collect(), |chunk| {
+        for t in chunk {
+            for &v in t {
+                used[v as usize].store(true, Relaxed);
+            }
         }
-    }
-    let mut next = 0;
-    for id in new_id.iter_mut() {
-        if *id == 0 {
-            *id = next;
-            next += 1;
-        }
+    })?;
+    let mut new_id = Vec::new();
+    reserve(&mut new_id, points.len())?;
+    let mut next = 0u64;
+    for u in &used {
+        new_id.push(next);
+        next += u64::from(u.load(Relaxed));
     }
     let mut i = 0;
     points.retain(|_| {
         i += 1;
-        new_id[i - 1] != u64::MAX
+        used[i - 1].load(Relaxed)
     });
-    for t in triangles.iter_mut() {
-        *t = t.map(|v| new_id[v as usize]);
-    }
+    exec.map(triangles.chunks_mut(CHUNK).collect(), |chunk| {
+        for t in chunk {
+            *t = t.map(|v| new_id[v as usize]);
+        }
+    })?;
+    Ok(())
 }
 
 /// Sums the slabs' statistics into `stats`.
