@@ -865,7 +865,10 @@ def plots(vols, results, out):
                           marker=marker, ls="--" if line else "none", color=color, alpha=0.45,
                           ms=3)
         ax.set_title(name, fontsize=8)
+        # Minor ticks get labels on an axis spanning under a decade: small
+        # and slanted, or they run into each other.
         ax.tick_params(labelsize=7)
+        ax.tick_params(axis="x", which="minor", labelsize=5, labelrotation=30)
         ax.set_xlabel("triangles", fontsize=7)
         ax.set_ylabel("distance to S_K (cells)", fontsize=7)
     for ax in list(axes.flat)[len(names):]:
@@ -1015,7 +1018,12 @@ def main():
     if args.only:
         # The header keeps the full run's figures and machine; this run is
         # listed apart, with its own (it may be another machine).
-        reruns = saved.get("reruns", []) + [dict(run, volumes=sorted(only), machine=mach)]
+        # An earlier re-run keeps only the volumes this one leaves alone
+        # (listed with none, it is dropped: its rows are all replaced).
+        earlier = [dict(rr, volumes=[v for v in rr["volumes"] if v not in only])
+                   for rr in saved.get("reruns", [])]
+        reruns = [rr for rr in earlier if rr["volumes"]]
+        reruns.append(dict(run, volumes=sorted(only), machine=mach))
         run = dict(seconds=saved["seconds"], load=saved["load"], date=saved["date"])
         mach = saved.get("machine") or mach
     with open(os.path.join(out, "results.json"), "w") as f:
