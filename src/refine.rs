@@ -928,21 +928,24 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         // stalls on every copy.)
         let mut split = 0u8;
         let mut mid_p = [DVec3::ZERO; 3];
-        let mut midpoint = [DVec3::ZERO; 3];
         let mut keys = [0u64; 3];
+        // An edge's midpoint, where needed: only an edge in a cell face
+        // looks at it before its sample is taken (rule A2 after).
+        let midpoint = |e: usize| (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
         for e in 0..3 {
-            midpoint[e] = (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
-            if t.near & (1 << e) == 0 && self.refinable.edge(t.fixed[e], midpoint[e]) {
+            let fixed = t.fixed[e];
+            let mid = if fixed == 0 { DVec3::ZERO } else { midpoint(e) };
+            if t.near & (1 << e) == 0 && self.refinable.edge(fixed, mid) {
                 keys[e] = edge_key(t.v[e], t.v[(e + 1) % 3]);
                 let d = match self.cache.get(keys[e]) {
                     Some(d) => d,
                     None => {
                         let s = sample_edge::<F>(
                             self.cell,
-                            self.refinable.iso(self.iso, t.fixed[e], midpoint[e]),
+                            self.refinable.iso(self.iso, fixed, mid),
                             t.p[e],
                             t.p[(e + 1) % 3],
-                            t.fixed[e],
+                            fixed,
                             self.epsilon,
                             self.interior_fallback,
                         );
@@ -968,7 +971,7 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         }
         let splits = |e: usize| split & (1 << e) != 0;
         let nsplit = split.count_ones() as usize;
-        let centroid = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+        let centroid = || (t.p[0] + t.p[1] + t.p[2]) / 3.0;
         // Only for a centre that is tested (not on Rule A's path).
         let longest = || {
             (0..3)
@@ -981,23 +984,23 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             Rule::A => None,
             Rule::A1 => {
                 if nsplit == 0 {
-                    self.test(centroid, 0, longest())
+                    self.test(centroid(), 0, longest())
                 } else {
                     None
                 }
             }
-            Rule::B => self.test(centroid, 0, longest()),
+            Rule::B => self.test(centroid(), 0, longest()),
             Rule::A2 => {
                 let mut shift = DVec3::ZERO;
                 for e in 0..3 {
                     if splits(e) {
-                        shift += mid_p[e] - midpoint[e];
+                        shift += mid_p[e] - midpoint(e);
                     }
                 }
                 if nsplit > 0 {
                     shift /= nsplit as f64;
                 }
-                let cand = (centroid + shift).clamp(DVec3::ZERO, DVec3::ONE);
+                let cand = (centroid() + shift).clamp(DVec3::ZERO, DVec3::ONE);
                 self.test(cand, 0, longest())
             }
         };
@@ -1149,12 +1152,13 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         }
         // A child edge along a parent edge keeps its fixed axes; one
         // joining two of the parent's corners is that whole, unsplit
-        // edge, tested (or known) near.
+        // edge, tested (or known) near. Two table reads and no branch:
+        // slots are masked into the 8x8 tables, and NO_EDGE reads the
+        // zero after the three edges' axes.
+        let fixed = [t.fixed[0], t.fixed[1], t.fixed[2], 0];
         let edge_of = |a: u8, b: u8| -> (u8, u8) {
-            match PARENT_EDGE[a as usize][b as usize] {
-                NO_EDGE => (0, 0),
-                e => (t.fixed[e as usize], (a < M0 as u8 && b < M0 as u8) as u8),
-            }
+            let (a, b) = (a as usize & 7, b as usize & 7);
+            (fixed[PARENT_EDGE[a][b] as usize & 3], WHOLE_EDGE[a][b])
         };
         for x in 0..n {
             if !keep[x] {
@@ -1198,8 +1202,9 @@ const NO_EDGE: u8 = 3;
 
 /// The parent edge two slots both lie on ([`NO_EDGE`] for none): corners
 /// `i` and `i + 1` and the split point between them lie on edge `i`.
-const PARENT_EDGE: [[u8; 7]; 7] = {
-    let mut t = [[NO_EDGE; 7]; 7];
+/// (Eight by eight, so that a slot masked with 7 needs no bounds check.)
+const PARENT_EDGE: [[u8; 8]; 8] = {
+    let mut t = [[NO_EDGE; 8]; 8];
     let mut e = 0;
     while e < 3 {
         let (a, b, m) = (e, (e + 1) % 3, M0 + e);
@@ -1210,6 +1215,22 @@ const PARENT_EDGE: [[u8; 7]; 7] = {
         t[b][m] = e as u8;
         t[m][b] = e as u8;
         e += 1;
+    }
+    t
+};
+
+/// 1 where two slots are two corners of the parent: the child edge between
+/// them is a whole parent edge (see [`PARENT_EDGE`]).
+const WHOLE_EDGE: [[u8; 8]; 8] = {
+    let mut t = [[0; 8]; 8];
+    let mut a = 0;
+    while a < M0 {
+        let mut b = 0;
+        while b < M0 {
+            t[a][b] = (a != b) as u8;
+            b += 1;
+        }
+        a += 1;
     }
     t
 };
