@@ -1152,13 +1152,14 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         }
         // A child edge along a parent edge keeps its fixed axes; one
         // joining two of the parent's corners is that whole, unsplit
-        // edge, tested (or known) near. Two table reads and no branch:
-        // slots are masked into the 8x8 tables, and NO_EDGE reads the
-        // zero after the three edges' axes.
+        // edge, tested (or known) near. No branch: slots are masked into
+        // the 8x8 table, and NO_EDGE reads the zero after the three
+        // edges' axes.
         let fixed = [t.fixed[0], t.fixed[1], t.fixed[2], 0];
         let edge_of = |a: u8, b: u8| -> (u8, u8) {
+            let whole = ((a < M0 as u8) & (b < M0 as u8)) as u8;
             let (a, b) = (a as usize & 7, b as usize & 7);
-            (fixed[PARENT_EDGE[a][b] as usize & 3], WHOLE_EDGE[a][b])
+            (fixed[PARENT_EDGE[a][b] as usize & 3], whole)
         };
         for x in 0..n {
             if !keep[x] {
@@ -1215,22 +1216,6 @@ const PARENT_EDGE: [[u8; 8]; 8] = {
         t[b][m] = e as u8;
         t[m][b] = e as u8;
         e += 1;
-    }
-    t
-};
-
-/// 1 where two slots are two corners of the parent: the child edge between
-/// them is a whole parent edge (see [`PARENT_EDGE`]).
-const WHOLE_EDGE: [[u8; 8]; 8] = {
-    let mut t = [[0; 8]; 8];
-    let mut a = 0;
-    while a < M0 {
-        let mut b = 0;
-        while b < M0 {
-            t[a][b] = (a != b) as u8;
-            b += 1;
-        }
-        a += 1;
     }
     t
 };
