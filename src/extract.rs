@@ -458,13 +458,17 @@ const PROGRESS_EVERY: Duration = Duration::from_millis(20);
 const MIN_CELLS_PER_SLAB: u64 = 1 << 16;
 
 /// [`MIN_CELLS_PER_SLAB`] on a host's executor, where no thread starts.
-/// It was half that while a cell cost more (Marschner-Lobb 41^3 on TBB
-/// with 2 threads, through VTK: 1.56 ms in one slab, 1.13 ms in two); with
-/// the cheaper cell loop of the twenty-fourth session, two slabs took
-/// 0.86 ms against 0.58 in one, and the tube and the atoms 1.3-1.5 times
-/// one slab's time (assembling slabs welds their shared planes through a
-/// hash map).
-const MIN_CELLS_PER_LENT_SLAB: u64 = 1 << 15;
+/// It was a quarter of that while a cell cost more (Marschner-Lobb 41^3
+/// on TBB with 2 threads, through VTK: 1.56 ms in one slab, 1.13 ms in
+/// two), then half (with the cheaper cell loop of the twenty-fourth
+/// session two slabs took 0.86 ms against 0.58 in one, and the tube and
+/// the atoms 1.3-1.5 times one slab's time). The same as on the library's
+/// own threads since the fifty-ninth session: the EPI scan 128x96x24 on
+/// TBB with 2 threads, through VTK, alternating with vtkFlyingEdges3D in
+/// one process (500 rounds, three runs each), took 0.94-0.96x
+/// FlyingEdges' time in 4 slabs against 1.01-1.07x in 6; volumes under
+/// 65 536 cells keep one slab, as before.
+const MIN_CELLS_PER_LENT_SLAB: u64 = MIN_CELLS_PER_SLAB;
 
 /// Meshes of fewer triangles are assembled on the calling thread: each
 /// parallel step of the assembly wakes the workers, which costs more than
