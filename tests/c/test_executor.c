@@ -106,9 +106,10 @@ int main(void) {
     for (int t = 0; t < 3; t++) {
         /* Samples: the distance to the centre (times 4 or 100 for the
          * integer types, rounded); spheres of radius 25.3, 12.6 and 12.
-         * Each grid has over 65 536 cells, so plain Marching Cubes cuts
-         * it into slabs on a pool of two or more. */
-        pmc_volume v = make_sphere(t == 0 ? 70 : 42, types[t], t == 0 ? 1.0 : (t == 1 ? 4.0 : 100.0));
+         * Each grid has over 131 072 cells, so plain Marching Cubes cuts
+         * it into slabs (of at least 65 536 cells) on a pool of two or
+         * more. */
+        pmc_volume v = make_sphere(t == 0 ? 70 : 52, types[t], t == 0 ? 1.0 : (t == 1 ? 4.0 : 100.0));
         double iso = t == 0 ? 25.3 : (t == 1 ? 50.5 : 1200.5);
         for (int setting = 0; setting < 3; setting++) {
             double eps = setting == 2 ? 0.001 : 0.0;
@@ -143,7 +144,8 @@ int main(void) {
         free((void *)v.data);
     }
 
-    pmc_volume v = make_sphere(48, PMC_SCALAR_TYPE_F32, 1.0);
+    /* Over 131 072 cells: two slabs without refinement. */
+    pmc_volume v = make_sphere(52, PMC_SCALAR_TYPE_F32, 1.0);
 
     /* A dropped task: an error with a message, no mesh, no crash. */
     for (int drop = 0; drop < 3; drop++) {
