@@ -22,8 +22,8 @@
 
 #define PMC_VERSION_MAJOR 0
 #define PMC_VERSION_MINOR 2
-#define PMC_VERSION_PATCH 1
-#define PMC_VERSION_STRING "0.2.1"
+#define PMC_VERSION_PATCH 2
+#define PMC_VERSION_STRING "0.2.2"
 
 /**
  * Highest value accepted by `pmc_measure_options_set_density`.
@@ -775,9 +775,11 @@ pmc_status pmc_measure_distance(const struct pmc_volume *volume, double isovalue
 /**
  * `pmc_measure_distance` with the settings of `options` (`NULL`: the
  * defaults, those of `pmc_measure_options_new`): the density, the
- * tolerances each distance is certified to and the number of threads
+ * tolerances each distance is certified to, the number of threads and,
+ * since 0.2.2, whether `points` are index points with an index offset
  * (see the `pmc_measure_options_set_*` functions). Arguments, results
- * and errors otherwise as there. Since 0.2.1.
+ * and errors otherwise as there (with index points, no check of
+ * `(p - origin) / spacing`: the points are used as given). Since 0.2.1.
  *
  * # Safety
  *
@@ -856,6 +858,30 @@ pmc_status pmc_measure_options_set_tolerance(struct pmc_measure_options *options
  * As for `pmc_measure_options_set_density`.
  */
 pmc_status pmc_measure_options_set_threads(struct pmc_measure_options *options, uint32_t threads);
+
+/**
+ * Makes `pmc_measure` take its points in continuous global index space,
+ * as `pmc_mesh_index_points` gives them for a mesh extracted with the
+ * index offset `offset` (`pmc_options_set_index_offset`; `{0, 0, 0}` for
+ * a mesh extracted without one), instead of world coordinates. `NULL`
+ * goes back to world coordinates, the default. Index points are measured
+ * as given, as the Rust API measures them: world points are turned into
+ * index points by `(point - origin) / spacing`, which loses what the
+ * world coordinates could not hold (far from the origin, where a double
+ * is coarser than a cell: world points 1e15 units from it are rounded to
+ * 1/8 of a unit, and measured up to several cells off). Since 0.2.2.
+ *
+ * Returns `PMC_STATUS_INVALID_ARGUMENT` (settings unchanged) when an
+ * offset lies outside `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`
+ * (the message names the axis and value); `PMC_STATUS_NULL_ARGUMENT` for
+ * `NULL` settings.
+ *
+ * # Safety
+ *
+ * As for `pmc_measure_options_set_density`; `offset` must be `NULL` or
+ * point to 3 readable `int64_t`.
+ */
+pmc_status pmc_measure_options_set_index_points(struct pmc_measure_options *options, const int64_t offset[3]);
 
 /**
  * Frees the buffers the library keeps between extractions for reuse and

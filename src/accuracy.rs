@@ -132,7 +132,9 @@ pub struct Distance {
 /// with an index offset are measured against a volume with the same
 /// [`Volume::index_offset`]; world points play no part. (The C API's
 /// `pmc_measure_distance` takes world points and no index offset: there,
-/// move the volume's origin by `spacing * offset` instead.) Triangles
+/// move the volume's origin by `spacing * offset` instead, or give
+/// `pmc_measure` the index points and the offset with
+/// `pmc_measure_options_set_index_points`.) Triangles
 /// index `points`. Errors: invalid volume, non-finite isovalue or points,
 /// points farther than [`MAX_MEASURE_REACH`] cells outside the volume,
 /// triangle indices out of range ([`Error::PointIdOutOfRange`]), `density`

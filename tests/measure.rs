@@ -660,6 +660,117 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
     assert!(run(origin).max > 10.0);
 }
 
+/// With `pmc_measure_options_set_index_points`, `pmc_measure` takes the
+/// index points of a mesh (`Mesh::index_points`, C's
+/// `pmc_mesh_index_points`) with the index offset it was extracted with,
+/// and measures them as Rust's `measure` does, to the last bit, whatever
+/// the volume's origin and spacing: on a volume 1e15 units from the
+/// origin, where world points are rounded to 1/8 of a unit (a quarter
+/// of a cell here), as it is at the origin. `NULL` goes back to world
+/// points; an offset beyond +/-2^31 is refused and changes nothing.
+#[test]
+fn c_measure_takes_index_points() {
+    use precisemc::ffi::{
+        pmc_measure, pmc_measure_options_free, pmc_measure_options_new,
+        pmc_measure_options_set_index_points,
+    };
+    let dims = [10, 9, 8];
+    let values = blobs(dims, 2, 6);
+    let spacing = [0.5, 0.5, 0.5];
+    let far = [1e15, -1e15, 3e15];
+    for offset in [[0i64; 3], [100, -40, 3]] {
+        let vol = Volume::new(&values, dims_u64(dims))
+            .with_spacing(spacing)
+            .with_origin(far)
+            .with_index_offset(offset);
+        let mesh = extract(&vol, 0.0, &Options::default()).unwrap();
+        assert!(mesh.triangles.len() > 50);
+        let want = measure(
+            &vol,
+            0.0,
+            &mesh.index_points,
+            &mesh.triangles,
+            &MeasureOptions::default(),
+        )
+        .unwrap();
+        assert!(want.max < 0.05, "{want:?}");
+        let cv = c_volume(&values, dims, far, spacing);
+        let index: Vec<f64> = mesh.index_points.iter().flatten().copied().collect();
+        let (world, tris) = c_mesh(&mesh);
+        let o = pmc_measure_options_new();
+        let run = |pts: &[f64]| {
+            let mut out = pmc_distance::default();
+            let status = unsafe {
+                pmc_measure(
+                    &cv,
+                    0.0,
+                    pts.as_ptr(),
+                    mesh.index_points.len() as u64,
+                    tris.as_ptr(),
+                    mesh.triangles.len() as u64,
+                    o,
+                    &mut out,
+                )
+            };
+            assert_eq!(status, PmcStatus::Ok, "{}", last_error());
+            out
+        };
+        assert_eq!(
+            unsafe { pmc_measure_options_set_index_points(o, offset.as_ptr()) },
+            PmcStatus::Ok
+        );
+        let got = run(&index);
+        assert_eq!(
+            (got.max, got.mean, got.rms, got.samples, got.unresolved),
+            (want.max, want.mean, want.rms, want.samples, want.unresolved),
+            "offset {offset:?}"
+        );
+        // Refused offsets leave the setting as it was.
+        for bad in [
+            [1i64 << 31 | 1, 0, 0],
+            [0, 0, -(1i64 << 32)],
+            [0, i64::MIN, 0],
+        ] {
+            assert_eq!(
+                unsafe { pmc_measure_options_set_index_points(o, bad.as_ptr()) },
+                PmcStatus::InvalidArgument
+            );
+            assert!(last_error().contains("index offset"), "{}", last_error());
+        }
+        assert_eq!(run(&index), got, "refused offsets change nothing");
+        // Back to world points: those of the mesh far from the origin
+        // were rounded, and measure farther (the moved origin that
+        // `pmc_measure_distance` asks for with an offset is added below,
+        // so both ways measure the same mesh).
+        assert_eq!(
+            unsafe { pmc_measure_options_set_index_points(o, std::ptr::null()) },
+            PmcStatus::Ok
+        );
+        let shifted = [0, 1, 2].map(|a| far[a] + spacing[a] * offset[a] as f64);
+        let cw = c_volume(&values, dims, shifted, spacing);
+        let mut out = pmc_distance::default();
+        let status = unsafe {
+            pmc_measure(
+                &cw,
+                0.0,
+                world.as_ptr(),
+                mesh.points.len() as u64,
+                tris.as_ptr(),
+                mesh.triangles.len() as u64,
+                o,
+                &mut out,
+            )
+        };
+        assert_eq!(status, PmcStatus::Ok, "{}", last_error());
+        assert!(out.max > 2.0 * want.max, "{out:?} {want:?}");
+        unsafe { pmc_measure_options_free(o) };
+    }
+    assert_eq!(
+        unsafe { pmc_measure_options_set_index_points(std::ptr::null_mut(), [0i64; 3].as_ptr()) },
+        PmcStatus::NullArgument
+    );
+}
+
 /// A finite point whose index coordinates overflow is outside the
 /// volume's representable index range, not a non-finite point.
 #[test]

@@ -2,7 +2,7 @@
 //! measure over C.
 
 use super::extract::failure;
-use super::measure_options::{pmc_measure_options, settings};
+use super::measure_options::{pmc_measure_options, settings, Settings};
 use super::panic::{status_boundary, Failure};
 use super::status::PmcStatus;
 use super::struct_size::{self, write_fields};
@@ -122,9 +122,12 @@ pub unsafe extern "C" fn pmc_measure_distance(
     density: u32,
     out: *mut pmc_distance,
 ) -> PmcStatus {
-    let options = MeasureOptions {
-        density: if density == 0 { 4 } else { density },
-        ..MeasureOptions::default()
+    let options = Settings {
+        measure: MeasureOptions {
+            density: if density == 0 { 4 } else { density },
+            ..MeasureOptions::default()
+        },
+        index_offset: None,
     };
     // SAFETY: forwarded contract.
     unsafe {
@@ -143,9 +146,11 @@ pub unsafe extern "C" fn pmc_measure_distance(
 
 /// `pmc_measure_distance` with the settings of `options` (`NULL`: the
 /// defaults, those of `pmc_measure_options_new`): the density, the
-/// tolerances each distance is certified to and the number of threads
+/// tolerances each distance is certified to, the number of threads and,
+/// since 0.2.2, whether `points` are index points with an index offset
 /// (see the `pmc_measure_options_set_*` functions). Arguments, results
-/// and errors otherwise as there. Since 0.2.1.
+/// and errors otherwise as there (with index points, no check of
+/// `(p - origin) / spacing`: the points are used as given). Since 0.2.1.
 ///
 /// # Safety
 ///
@@ -192,7 +197,7 @@ unsafe fn measure_into(
     point_count: u64,
     triangles: *const i64,
     triangle_count: u64,
-    options: MeasureOptions,
+    options: Settings,
     out: *mut pmc_distance,
 ) -> PmcStatus {
     status_boundary(|| {
@@ -214,7 +219,7 @@ unsafe fn measure_into(
         // SAFETY: per the contract, `volume` is NULL or points to a volume.
         let v = unsafe { volume_ref(volume)? };
         // SAFETY: as for pmc_extract.
-        let volume = unsafe { core_volume(v, [0; 3])? };
+        let volume = unsafe { core_volume(v, options.index_offset.unwrap_or([0; 3]))? };
         // SAFETY: `points` is readable for 3 * point_count doubles.
         let pts = unsafe { array(points, point_count, "points")? };
         // SAFETY: `triangles` is readable for 3 * triangle_count integers.
@@ -228,6 +233,10 @@ unsafe fn measure_into(
                 return Err(failure(crate::Error::InvalidMeasure(
                     "points must be finite",
                 )));
+            }
+            if options.index_offset.is_some() {
+                index_points.push([p[0], p[1], p[2]]);
+                continue;
             }
             let q = [0, 1, 2].map(|a| (p[a] - v.origin[a]) / v.spacing[a]);
             // A finite point far outside the volume can overflow in index
@@ -255,7 +264,8 @@ unsafe fn measure_into(
             }
             tris.push([t[0] as u64, t[1] as u64, t[2] as u64]);
         }
-        let d = measure(&volume, isovalue, &index_points, &tris, &options).map_err(failure)?;
+        let d =
+            measure(&volume, isovalue, &index_points, &tris, &options.measure).map_err(failure)?;
         // SAFETY: as above.
         unsafe {
             write(

@@ -1,7 +1,7 @@
 //! `pmc_measure_options`: an opaque set of settings of the accuracy
 //! measure (`pmc_measure`), as `pmc_options` is of the extraction.
 
-use super::options::PMC_MAX_THREADS;
+use super::options::{PMC_MAX_INDEX_OFFSET, PMC_MAX_THREADS};
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
 use crate::accuracy::{MeasureOptions, MIN_TOLERANCE};
@@ -25,15 +25,26 @@ pub struct pmc_measure_options {
     _private: [u8; 0],
 }
 
+/// What a `pmc_measure_options` handle holds.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Settings {
+    /// The core's settings.
+    pub measure: MeasureOptions,
+    /// `Some(offset)`: the points are index points in global index space,
+    /// of a mesh extracted with this index offset
+    /// (`pmc_measure_options_set_index_points`); `None`: world points.
+    pub index_offset: Option<[i64; 3]>,
+}
+
 /// The settings behind a handle, the defaults for `NULL`.
 ///
 /// # Safety
 ///
 /// `p` must be `NULL` or a live handle from `pmc_measure_options_new`.
-pub(crate) unsafe fn settings(p: *const pmc_measure_options) -> MeasureOptions {
+pub(crate) unsafe fn settings(p: *const pmc_measure_options) -> Settings {
     // SAFETY: per the contract, a non-null `p` came from `Box::into_raw` of
-    // a `MeasureOptions` in `pmc_measure_options_new` and is still live.
-    unsafe { p.cast::<MeasureOptions>().as_ref() }
+    // a `Settings` in `pmc_measure_options_new` and is still live.
+    unsafe { p.cast::<Settings>().as_ref() }
         .cloned()
         .unwrap_or_default()
 }
@@ -45,11 +56,11 @@ pub(crate) unsafe fn settings(p: *const pmc_measure_options) -> MeasureOptions {
 /// `p` must be `NULL` or a live, not concurrently used handle.
 unsafe fn with_settings(
     p: *mut pmc_measure_options,
-    f: impl FnOnce(&mut MeasureOptions) -> Result<(), Failure>,
+    f: impl FnOnce(&mut Settings) -> Result<(), Failure>,
 ) -> PmcStatus {
     status_boundary(|| {
         // SAFETY: as for `settings`; the caller guarantees exclusivity.
-        let o = unsafe { p.cast::<MeasureOptions>().as_mut() }.ok_or(Failure::null("options"))?;
+        let o = unsafe { p.cast::<Settings>().as_mut() }.ok_or(Failure::null("options"))?;
         f(o)
     })
 }
@@ -62,7 +73,7 @@ unsafe fn with_settings(
 #[no_mangle]
 pub extern "C" fn pmc_measure_options_new() -> *mut pmc_measure_options {
     value_boundary(std::ptr::null_mut(), || {
-        Box::into_raw(Box::new(MeasureOptions::default())).cast()
+        Box::into_raw(Box::new(Settings::default())).cast()
     })
 }
 
@@ -79,7 +90,7 @@ pub unsafe extern "C" fn pmc_measure_options_free(options: *mut pmc_measure_opti
     value_boundary((), || {
         if !options.is_null() {
             // SAFETY: per the contract, a live handle freed once.
-            drop(unsafe { Box::from_raw(options.cast::<MeasureOptions>()) });
+            drop(unsafe { Box::from_raw(options.cast::<Settings>()) });
         }
     })
 }
@@ -101,13 +112,13 @@ pub unsafe extern "C" fn pmc_measure_options_set_density(
     options: *mut pmc_measure_options,
     density: u32,
 ) -> PmcStatus {
-    let set = |o: &mut MeasureOptions| {
+    let set = |o: &mut Settings| {
         if !(1..=PMC_MAX_MEASURE_DENSITY).contains(&density) {
             return Err(Failure::invalid(format!(
                 "measure density {density} is outside 1..={PMC_MAX_MEASURE_DENSITY}"
             )));
         }
-        o.density = density;
+        o.measure.density = density;
         Ok(())
     };
     // SAFETY: forwarded contract.
@@ -135,7 +146,7 @@ pub unsafe extern "C" fn pmc_measure_options_set_tolerance(
     absolute: f64,
     relative: f64,
 ) -> PmcStatus {
-    let set = |o: &mut MeasureOptions| {
+    let set = |o: &mut Settings| {
         if !(absolute.is_finite() && absolute >= PMC_MIN_MEASURE_TOLERANCE) {
             return Err(Failure::invalid(format!(
                 "measure tolerance {} must be finite and at least 1e-8 cells",
@@ -148,8 +159,8 @@ pub unsafe extern "C" fn pmc_measure_options_set_tolerance(
                 crate::error::Number(relative)
             )));
         }
-        o.tolerance = absolute;
-        o.relative_tolerance = relative;
+        o.measure.tolerance = absolute;
+        o.measure.relative_tolerance = relative;
         Ok(())
     };
     // SAFETY: forwarded contract.
@@ -172,13 +183,61 @@ pub unsafe extern "C" fn pmc_measure_options_set_threads(
     options: *mut pmc_measure_options,
     threads: u32,
 ) -> PmcStatus {
-    let set = |o: &mut MeasureOptions| {
+    let set = |o: &mut Settings| {
         if threads > PMC_MAX_THREADS {
             return Err(Failure::invalid(format!(
                 "{threads} threads is above the limit of {PMC_MAX_THREADS}"
             )));
         }
-        o.threads = threads as usize;
+        o.measure.threads = threads as usize;
+        Ok(())
+    };
+    // SAFETY: forwarded contract.
+    unsafe { with_settings(options, set) }
+}
+
+/// Makes `pmc_measure` take its points in continuous global index space,
+/// as `pmc_mesh_index_points` gives them for a mesh extracted with the
+/// index offset `offset` (`pmc_options_set_index_offset`; `{0, 0, 0}` for
+/// a mesh extracted without one), instead of world coordinates. `NULL`
+/// goes back to world coordinates, the default. Index points are measured
+/// as given, as the Rust API measures them: world points are turned into
+/// index points by `(point - origin) / spacing`, which loses what the
+/// world coordinates could not hold (far from the origin, where a double
+/// is coarser than a cell: world points 1e15 units from it are rounded to
+/// 1/8 of a unit, and measured up to several cells off). Since 0.2.2.
+///
+/// Returns `PMC_STATUS_INVALID_ARGUMENT` (settings unchanged) when an
+/// offset lies outside `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`
+/// (the message names the axis and value); `PMC_STATUS_NULL_ARGUMENT` for
+/// `NULL` settings.
+///
+/// # Safety
+///
+/// As for `pmc_measure_options_set_density`; `offset` must be `NULL` or
+/// point to 3 readable `int64_t`.
+/// cbindgen:ptrs-as-arrays=[[offset; 3]]
+#[no_mangle]
+pub unsafe extern "C" fn pmc_measure_options_set_index_points(
+    options: *mut pmc_measure_options,
+    offset: *const i64,
+) -> PmcStatus {
+    let set = |o: &mut Settings| {
+        if offset.is_null() {
+            o.index_offset = None;
+            return Ok(());
+        }
+        // SAFETY: `offset` is non-null and points to 3 readable values per
+        // the contract; read unaligned to tolerate any address.
+        let v = unsafe { offset.cast::<[i64; 3]>().read_unaligned() };
+        if let Some(axis) = (0..3).find(|&a| v[a].unsigned_abs() > PMC_MAX_INDEX_OFFSET as u64) {
+            let e = crate::Error::InvalidIndexOffset {
+                axis,
+                value: v[axis],
+            };
+            return Err(Failure::invalid(format!("invalid measure options: {e}")));
+        }
+        o.index_offset = Some(v);
         Ok(())
     };
     // SAFETY: forwarded contract.

@@ -52,8 +52,9 @@ pub use extract::pmc_extract;
 pub use measure::{pmc_distance, pmc_measure, pmc_measure_distance};
 pub use measure_options::{
     pmc_measure_options, pmc_measure_options_free, pmc_measure_options_new,
-    pmc_measure_options_set_density, pmc_measure_options_set_threads,
-    pmc_measure_options_set_tolerance, PMC_MAX_MEASURE_DENSITY, PMC_MIN_MEASURE_TOLERANCE,
+    pmc_measure_options_set_density, pmc_measure_options_set_index_points,
+    pmc_measure_options_set_threads, pmc_measure_options_set_tolerance, PMC_MAX_MEASURE_DENSITY,
+    PMC_MIN_MEASURE_TOLERANCE,
 };
 pub use memory::pmc_release_memory;
 pub use mesh::{

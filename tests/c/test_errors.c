@@ -430,6 +430,24 @@ static void test_measure_options(void) {
                  PMC_STATUS_OK);
     CHECK(memcmp(&dense, &dense2, sizeof dense) == 0); /* any thread count */
 
+    /* Index points: the mesh's own (origin 0 and spacing 1 here, so the
+     * same numbers as its world points and the same result); an offset
+     * beyond 2^31 is refused and changes nothing; NULL goes back to world
+     * points. */
+    {
+        const int64_t zero[3] = {0, 0, 0}, bad[3] = {0, 0, PMC_MAX_INDEX_OFFSET + 1};
+        pmc_distance by_index = plain;
+        CHECK_STATUS(pmc_measure_options_set_index_points(o, zero), PMC_STATUS_OK);
+        CHECK_STATUS(pmc_measure_options_set_index_points(o, bad), PMC_STATUS_INVALID_ARGUMENT);
+        CHECK(strstr(last_error(), "index offset 2 (z) is 2147483649") != NULL);
+        CHECK_STATUS(pmc_measure(&v, 3.5, pmc_mesh_index_points(m), np, pmc_mesh_triangles(m), nt,
+                                 o, &by_index),
+                     PMC_STATUS_OK);
+        CHECK(memcmp(&dense, &by_index, sizeof dense) == 0);
+        CHECK_STATUS(pmc_measure_options_set_index_points(o, NULL), PMC_STATUS_OK);
+        CHECK_STATUS(pmc_measure_options_set_index_points(NULL, zero), PMC_STATUS_NULL_ARGUMENT);
+    }
+
     pmc_measure_options_free(o);
     pmc_measure_options_free(NULL);
     pmc_mesh_free(m);
