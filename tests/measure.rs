@@ -671,8 +671,7 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
 #[test]
 fn c_measure_takes_index_points() {
     use precisemc::ffi::{
-        pmc_measure, pmc_measure_options_free, pmc_measure_options_new,
-        pmc_measure_options_set_index_points,
+        pmc_measure_options_free, pmc_measure_options_new, pmc_measure_options_set_index_points,
     };
     let dims = [10, 9, 8];
     let values = blobs(dims, 2, 6);
@@ -698,23 +697,7 @@ fn c_measure_takes_index_points() {
         let index: Vec<f64> = mesh.index_points.iter().flatten().copied().collect();
         let (world, tris) = c_mesh(&mesh);
         let o = pmc_measure_options_new();
-        let run = |pts: &[f64]| {
-            let mut out = pmc_distance::default();
-            let status = unsafe {
-                pmc_measure(
-                    &cv,
-                    0.0,
-                    pts.as_ptr(),
-                    mesh.index_points.len() as u64,
-                    tris.as_ptr(),
-                    mesh.triangles.len() as u64,
-                    o,
-                    &mut out,
-                )
-            };
-            assert_eq!(status, PmcStatus::Ok, "{}", last_error());
-            out
-        };
+        let run = |pts: &[f64]| c_measure(&cv, pts, &tris, o);
         assert_eq!(
             unsafe { pmc_measure_options_set_index_points(o, offset.as_ptr()) },
             PmcStatus::Ok
@@ -748,20 +731,7 @@ fn c_measure_takes_index_points() {
         );
         let shifted = [0, 1, 2].map(|a| far[a] + spacing[a] * offset[a] as f64);
         let cw = c_volume(&values, dims, shifted, spacing);
-        let mut out = pmc_distance::default();
-        let status = unsafe {
-            pmc_measure(
-                &cw,
-                0.0,
-                world.as_ptr(),
-                mesh.points.len() as u64,
-                tris.as_ptr(),
-                mesh.triangles.len() as u64,
-                o,
-                &mut out,
-            )
-        };
-        assert_eq!(status, PmcStatus::Ok, "{}", last_error());
+        let out = c_measure(&cw, &world, &tris, o);
         assert!(out.max > 2.0 * want.max, "{out:?} {want:?}");
         unsafe { pmc_measure_options_free(o) };
     }
@@ -874,6 +844,31 @@ fn c_volume(values: &[f64], dims: [usize; 3], origin: [f64; 3], spacing: [f64; 3
     }
 }
 
+/// `pmc_measure` of the points `pts` (xyz triples) and triangles `tris`
+/// (id triples) on `cv` with the settings `o`, which must succeed.
+fn c_measure(
+    cv: &pmc_volume,
+    pts: &[f64],
+    tris: &[i64],
+    o: *const precisemc::ffi::pmc_measure_options,
+) -> pmc_distance {
+    let mut out = pmc_distance::default();
+    let status = unsafe {
+        precisemc::ffi::pmc_measure(
+            cv,
+            0.0,
+            pts.as_ptr(),
+            (pts.len() / 3) as u64,
+            tris.as_ptr(),
+            (tris.len() / 3) as u64,
+            o,
+            &mut out,
+        )
+    };
+    assert_eq!(status, PmcStatus::Ok, "{}", last_error());
+    out
+}
+
 /// A mesh's world points and triangles as the C API takes them.
 fn c_mesh(mesh: &precisemc::Mesh) -> (Vec<f64>, Vec<i64>) {
     let pts = mesh.points.iter().flatten().copied().collect();
@@ -975,7 +970,7 @@ fn a_tight_absolute_tolerance_stays_bounded() {
 #[test]
 fn c_measure_options_are_those_of_rust() {
     use precisemc::ffi::{
-        pmc_measure, pmc_measure_options, pmc_measure_options_free, pmc_measure_options_new,
+        pmc_measure_options, pmc_measure_options_free, pmc_measure_options_new,
         pmc_measure_options_set_density, pmc_measure_options_set_threads,
         pmc_measure_options_set_tolerance,
     };
@@ -986,23 +981,7 @@ fn c_measure_options_are_those_of_rust() {
     assert!(mesh.triangles.len() > 100);
     let cv = c_volume(&values, dims, [0.0; 3], [1.0; 3]);
     let (pts, tris) = c_mesh(&mesh);
-    let c = |o: *const pmc_measure_options| {
-        let mut out = pmc_distance::default();
-        let status = unsafe {
-            pmc_measure(
-                &cv,
-                0.0,
-                pts.as_ptr(),
-                mesh.points.len() as u64,
-                tris.as_ptr(),
-                mesh.triangles.len() as u64,
-                o,
-                &mut out,
-            )
-        };
-        assert_eq!(status, PmcStatus::Ok, "{}", last_error());
-        out
-    };
+    let c = |o: *const pmc_measure_options| c_measure(&cv, &pts, &tris, o);
     let rust = |o: &MeasureOptions| {
         let d = measure(&vol, 0.0, &mesh.index_points, &mesh.triangles, o).unwrap();
         pmc_distance {
