@@ -10,7 +10,7 @@ minus the worker's peak after it has loaded the volume. The small volumes'
 speed rows are run once more with the filters interleaved in one process
 (`interleaved`), where their 0.1-2 ms calls compare more steadily.
 
-    bench/run.sh [--quick] [--out DIR]
+    bench/run.sh [--quick] [--out DIR] [--only VOL[,VOL...]] [--interleaved-only]
 
 Needs Debian's /usr/bin/python3 (python3-vtk9, numpy, matplotlib) and
 PYTHONPATH with the PreciseMC module (build/vtk/precisemc_pythonpath.txt).
@@ -23,6 +23,7 @@ import math
 import os
 import platform
 import random
+import resource
 import statistics
 import struct
 import subprocess
@@ -318,6 +319,7 @@ def interleaved(cfg):
     img = to_image(np.load(cfg["path"]))
     filters = [(label, build(dict(cfg, **extra), img, cfg["iso"])) for label, extra in INTERLEAVED]
     times = {label: [] for label, _ in filters}
+    faults = {label: 0 for label, _ in filters}
     warmup = INTERLEAVED_WARMUP
     order = random.Random(7)
     for k in range(warmup + cfg["rounds"]):
@@ -325,16 +327,25 @@ def interleaved(cfg):
         order.shuffle(turn)
         for label, f in turn:
             f.Modified()
+            before = minor_faults()
             t0 = time.perf_counter()
             f.Update()
+            t1 = time.perf_counter()
             if k >= warmup:
-                times[label].append(time.perf_counter() - t0)
+                times[label].append(t1 - t0)
+                faults[label] += minor_faults() - before
     fe = times["FE"]
-    return dict(cfg, filters={
+    return dict(cfg, malloc=os.environ.get("GLIBC_TUNABLES", ""), filters={
         label: dict(time=statistics.median(ts),
                     ratio=statistics.median(t / e for t, e in zip(ts, fe)),
+                    faults=faults[label] / max(1, cfg["rounds"]),
                     tris=int(f.GetOutput().GetNumberOfCells()))
         for (label, f), ts in zip(filters, times.values())})
+
+
+def minor_faults():
+    """Minor page faults of this process so far (all its threads)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 
 
 def worker(cfg):
@@ -394,7 +405,22 @@ RESULT_KEYS = ("time", "time_min", "times", "time_cold", "times_cold", "tris", "
                "proj_failures", "dist", "measure_s", "dist_all", "error")
 
 
+# glibc's malloc settings for the interleaved measure (see `run_worker`).
+STEADY_MALLOC = "glibc.malloc.trim_threshold=134217728:glibc.malloc.mmap_threshold=33554432"
+
+
 def run_worker(cfg, env):
+    if cfg["kind"] == "interleaved":
+        # Fixed trim and mmap thresholds: with glibc's defaults, whether a
+        # filter's freed output stays mapped for its next call depends on
+        # what else the process allocated and freed before (the thresholds
+        # adapt to it), and in some processes every vtkFlyingEdges3D call
+        # faulted its output in afresh (about 300 page faults a call on the
+        # EPI scan, 200 on Marschner-Lobb: 30-70 % more time), while
+        # PreciseMC, which keeps its buffers, did not. Fixed, no filter's
+        # call pays for another's frees.
+        env = dict(env, GLIBC_TUNABLES=":".join(
+            t for t in (env.get("GLIBC_TUNABLES", ""), STEADY_MALLOC) if t))
     try:
         r = subprocess.run([sys.executable, os.path.abspath(__file__), "--worker", json.dumps(cfg)],
                            capture_output=True, text=True, env=env, timeout=900)
@@ -780,24 +806,53 @@ def report(vols, results, out, quick, elapsed, mach=None, load=None, date=None, 
             add(f"| {name} | {calls} | " + " | ".join(cells) + " |")
     if interleaved:
         rounds = max((r.get("rounds", 0) for r in interleaved), default=0)
-        add("\nThe small volumes again, the filters interleaved in one process: "
-            "vtkFlyingEdges3D (TBB) and PreciseMC with refinement off, one pipeline each "
-            f"for all calls, called in turn for {rounds} rounds (after {INTERLEAVED_WARMUP} "
-            "unmeasured), "
-            "the order rotating; median time in ms, and in brackets the median over "
-            "rounds of the call's time over FlyingEdges' call of the same round (own "
-            "threads; SMP: tasks on vtkSMPTools):\n")
+        ran = [STEADY_MALLOC in r.get("malloc", "") for r in interleaved if "error" not in r]
+        fixed = (f"glibc's malloc thresholds fixed (`GLIBC_TUNABLES={STEADY_MALLOC}`); with "
+                 "its defaults, in some processes every FlyingEdges call faulted its output in "
+                 "afresh")
+        if all(ran):
+            malloc_note = f" The processes ran with {fixed}."
+        elif any(ran):
+            malloc_note = (f" Rows with a fault count ran with {fixed}; the others (`-`, "
+                           "measured before the count) with the defaults.")
+        else:
+            malloc_note = (" These rows ran with glibc's default malloc thresholds, with which "
+                           "in some processes every FlyingEdges call faulted its output in "
+                           "afresh (the measure fixes them, and counts the faults, since "
+                           "2026-12-01; `-`: not counted).")
+        # Rows re-run alone (`--interleaved-only`) carry when and where.
+        runs = {}
+        for r in interleaved:
+            if "when" in r:
+                w = r["when"]
+                on = f", on {w['machine']}" if w.get("machine") and w["machine"] != mach else ""
+                runs.setdefault(f"{w['date']}{on}, load {w['load']:.2f}", []).append(r["vol"])
+        again = "".join(f" (re-run alone with `--interleaved-only`, {k}: "
+                        f"{', '.join(dict.fromkeys(v))})" for k, v in runs.items())
+        add("\nThe small volumes again, the filters interleaved in one process"
+            f"{again}: vtkFlyingEdges3D (TBB) and PreciseMC with refinement off, one pipeline "
+            f"each for all calls, called in turn for {rounds} rounds (after "
+            f"{INTERLEAVED_WARMUP} unmeasured), each round's order shuffled (fixed seed); "
+            "median time in ms, and in brackets the median over rounds of the call's time "
+            "over FlyingEdges' call of the same round (own threads; SMP: tasks on "
+            "vtkSMPTools); last column: the minor page faults a call of FlyingEdges and "
+            "the most of any PreciseMC row (means over the rounds)."
+            + malloc_note + "\n")
         labels = [label for label, _ in INTERLEAVED]
-        add("| volume | threads | " + " | ".join(labels) + " |")
-        add("|---|---:|" + "---:|" * len(labels))
+        add("| volume | threads | " + " | ".join(labels) + " | faults a call |")
+        add("|---|---:|" + "---:|" * len(labels) + "---:|")
         for r in interleaved:
             if "error" in r:
                 add(f"| {r['vol']} | {r['threads']} | error: {r['error'][:80]} |")
                 continue
             fs = r["filters"]
+            faults = "-"
+            if all("faults" in x for x in fs.values()):
+                most = max(x["faults"] for l, x in fs.items() if l != "FE")
+                faults = f"{fs['FE']['faults']:.0f} / {most:.0f}"
             add(f"| {r['vol']} | {r['threads']} | " + " | ".join(
                 f"{fs[l]['time'] * 1000:.3f}" + ("" if l == "FE" else f" ({fs[l]['ratio']:.2f})")
-                for l in labels) + " |")
+                for l in labels) + f" | {faults} |")
     refined = [r for r in results if r.get("kind") == "pmc" and r.get("eps", 0) > 0
                and "error" not in r and r["threads"] == 2 and r["tris"] >= 1e6]
     if refined:
@@ -923,6 +978,61 @@ def plots(vols, results, out):
     plt.close(fig)
 
 
+def run_interleaved(vols, names, quick, env):
+    """The interleaved measure of the small volumes (those in `names`
+    unless it is None), on 1 and 2 threads; one result a run."""
+    inter = []
+    for name, v in vols.items():
+        if v["group"] != "small" or (names is not None and name not in names):
+            continue
+        for t in (1, 2):
+            r = run_worker(dict(kind="interleaved", vol=name, path=v["path"], iso=v["iso"],
+                                threads=t, rounds=50 if quick else INTERLEAVED_ROUNDS), env)
+            inter.append(r)
+            print(f"[interleaved] {name:>14} {t}T " + (
+                f"error: {r['error']}" if "error" in r else "  ".join(
+                    f"{label} {x['time'] * 1000:.3f} ms ({x['ratio']:.2f})"
+                    for label, x in r["filters"].items())), flush=True)
+    return inter
+
+
+def interleaved_only(args, vols, out, load):
+    """`--interleaved-only`: the interleaved measure again, its rows
+    replaced in OUT/results.json (each marked with when and where it ran),
+    every other row kept; the report and plots rewritten."""
+    path = os.path.join(out, "results.json")
+    if not os.path.exists(path):
+        print(f"bench: --interleaved-only needs an earlier run's {path}", file=sys.stderr)
+        return 2
+    with open(path) as f:
+        saved = json.load(f)
+    if saved["quick"] != args.quick:
+        print("bench: --interleaved-only must match the earlier run's mode (--quick or not)",
+              file=sys.stderr)
+        return 2
+    names = set(args.only.split(",")) if args.only else None
+    small = {n for n, v in vols.items() if v["group"] == "small"}
+    if names is not None and not names <= small:
+        print(f"bench: not small volumes: {', '.join(sorted(names - small))}; "
+              f"small: {', '.join(sorted(small))}", file=sys.stderr)
+        return 2
+    when = dict(date=time.strftime("%Y-%m-%d"), load=load, machine=machine())
+    inter = [dict(r, when=when) for r in run_interleaved(vols, names, args.quick, dict(os.environ))]
+    fresh = {(r["vol"], r["threads"]) for r in inter}
+    inter += [r for r in saved.get("interleaved", []) if (r["vol"], r["threads"]) not in fresh]
+    order = {name: i for i, name in enumerate(vols)}
+    inter.sort(key=lambda r: (order.get(r["vol"], len(order)), r["threads"]))
+    saved["interleaved"] = inter
+    with open(path, "w") as f:
+        json.dump(saved, f, indent=1)
+    report(saved["volumes"], saved["results"], out, saved["quick"], saved["seconds"],
+           saved.get("machine"), saved.get("load"), saved.get("date"),
+           saved.get("reruns", ()), inter)
+    plots(saved["volumes"], saved["results"], out)
+    print(f"bench: interleaved measure, {len(fresh)} runs; results in {out}")
+    return 1 if any("error" in r for r in inter) else 0
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="small volumes, a minute or so")
@@ -936,6 +1046,10 @@ def main():
                     help="run only these volumes' configurations (names as in results.md, "
                     "e.g. ml,brain_epi) and replace their rows in OUT/results.json, "
                     "keeping the other volumes' rows of the earlier run")
+    ap.add_argument("--interleaved-only", action="store_true",
+                    help="run only the small volumes' interleaved measure (those of --only, "
+                    "if given) and replace its rows in OUT/results.json, keeping every "
+                    "other row of the earlier run")
     args = ap.parse_args()
     if args.worker:
         print(json.dumps(worker(json.loads(args.worker))))
@@ -953,6 +1067,8 @@ def main():
     start = time.perf_counter()
     load = os.getloadavg()[0]
     vols = prepare_volumes(args.quick, args.tool)
+    if args.interleaved_only:
+        return interleaved_only(args, vols, out, load)
     cfgs = plan(vols, args.quick)
     kept = []
     if args.only:
@@ -993,18 +1109,7 @@ def main():
     # The small volumes' speed rows again, the filters interleaved in one
     # process (their calls take 0.1-2 ms, where a fresh pipeline a call
     # and a neighbour's burst move the ratios above by a third).
-    inter = []
-    for name, v in vols.items():
-        if v["group"] != "small" or (args.only and name not in only):
-            continue
-        for t in (1, 2):
-            r = run_worker(dict(kind="interleaved", vol=name, path=v["path"], iso=v["iso"],
-                                threads=t, rounds=50 if args.quick else INTERLEAVED_ROUNDS), env)
-            inter.append(r)
-            print(f"[interleaved] {name:>14} {t}T " + (
-                f"error: {r['error']}" if "error" in r else "  ".join(
-                    f"{label} {x['time'] * 1000:.3f} ms ({x['ratio']:.2f})"
-                    for label, x in r["filters"].items())), flush=True)
+    inter = run_interleaved(vols, only if args.only else None, args.quick, env)
     if args.only:
         inter = [r for r in saved.get("interleaved", []) if r["vol"] not in only] + inter
     # The rows of the volumes not re-run, in plan order around the new ones.

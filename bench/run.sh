@@ -4,6 +4,8 @@
 #
 #   bash bench/run.sh            # full run, ~14 min on 2 cores -> bench/results/
 #   bash bench/run.sh --quick    # ~1.5 min, small volumes -> bench/results-quick/
+#   bash bench/run.sh --only ml,brain_epi   # re-run some volumes' rows
+#   bash bench/run.sh --interleaved-only    # ~1 min, only the interleaved measure
 #
 # Builds build/core and build/vtk first (incrementally, pmc_build_vtk), installs
 # python3-matplotlib from Debian if missing, and fetches the real volume (a
