@@ -14,12 +14,13 @@ use std::time::Duration;
 
 use glam::DVec3;
 
-use crate::extract::{key, KeyMap, SlabOut};
 use crate::memory::reserve;
 use crate::mesh::{Mesh, Stats};
 use crate::par::Exec;
+use crate::point_key::{key, KeyMap};
 use crate::recycle::{self, Bin};
 use crate::refine::Counters;
+use crate::slab_pass::SlabOut;
 use crate::volume::Volume;
 use crate::Error;
 

@@ -4,7 +4,7 @@
 //! Marching Cubes and refinement only ever ask a filter for a value and a
 //! gradient at a point of one cell, so new filters plug in here without
 //! touching either. That is an extension point of the crate itself:
-//! [`crate::extract`] takes one of the filters
+//! [`crate::extract()`] takes one of the filters
 //! [`crate::Reconstruction`] names, and a filter implemented outside the
 //! crate serves [`crate::project`]'s functions (projection, the epsilon
 //! test, edge crossings), not an extraction. A filter must be

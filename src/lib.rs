@@ -79,8 +79,11 @@ mod nearest;
 mod normals;
 mod os_thread;
 mod par;
+mod point_key;
 mod recycle;
 mod refine;
+mod slab_pass;
+mod slabs;
 mod subcells;
 #[cfg(test)]
 mod test_rng;

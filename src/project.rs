@@ -222,7 +222,7 @@ pub fn test<F: ReconstructionFilter>(
     test_from::<F>(cell, iso, p, F::value_gradient(cell, p), fixed, epsilon)
 }
 
-/// [`test`], given the filter's value and gradient at `p` (as
+/// [`test()`], given the filter's value and gradient at `p` (as
 /// [`ReconstructionFilter::value_gradient`] returns them). Always inlined,
 /// for the reason [`crate::refine`]'s `sample_from` is.
 #[inline(always)]
@@ -300,7 +300,7 @@ pub(crate) fn test_from<F: ReconstructionFilter>(
     }
 }
 
-/// A gradient line through a sample point, for [`test`]: `q(s) = F - iso`
+/// A gradient line through a sample point, for [`test()`]: `q(s) = F - iso`
 /// at `p + s g` (`g` the gradient or its unit direction), with `q(0) = q0`
 /// and `q'(0) = slope0`; `reach` is epsilon in units of `s`.
 struct Line {

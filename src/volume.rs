@@ -610,7 +610,7 @@ impl<'a, T: Scalar> Grid<'a, T> {
 #[cfg(test)]
 mod tests {
     use super::Scalar;
-    use crate::extract::next_float;
+    use crate::point_key::next_float;
 
     /// The comparison in `f64`, as the default `inside_run` makes it.
     fn reference<T: Scalar>(run: &[T], iso: f64) -> Vec<u8> {

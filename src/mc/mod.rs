@@ -6,7 +6,7 @@
 //! corners (VTK order, [`crate::tables::cube`]). A corner is *inside* when
 //! `f >= 0`, exactly as `vtkMarchingCubes` builds its case index, so a
 //! sample equal to the isovalue counts as inside and its edge vertices sit
-//! on the sample itself (they are merged there, see `extract`).
+//! on the sample itself (they are merged there, see `slab_pass`).
 
 pub mod classic;
 pub mod topology_check;
