@@ -109,82 +109,46 @@ mod tests {
 
     #[test]
     fn slab_counts() {
-        // Refinement off: no slab under the minimum, at least one, and
-        // whole shares for the workers (5 slabs' worth on 2: 4).
-        assert_eq!(
-            slab_count(24, 60_000, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
-            1
-        );
-        assert_eq!(
-            slab_count(24, 340_000, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
-            4
-        );
-        assert_eq!(
-            slab_count(
-                255,
-                255u64.pow(3),
-                2,
-                false,
-                MIN_CELLS_PER_SLAB,
-                1,
-                u64::MAX
-            ),
-            16
-        );
-        assert_eq!(
-            slab_count(0, 0, 2, false, MIN_CELLS_PER_SLAB, 1, u64::MAX),
-            1
-        );
-        // Refinement on: several slabs a thread whatever the size.
-        assert_eq!(
-            slab_count(24, 294_912, 2, true, MIN_CELLS_PER_SLAB, 1, u64::MAX),
-            16
-        );
-        // One thread: one slab without refinement, several with it.
-        assert_eq!(
-            slab_count(
-                255,
-                255u64.pow(3),
-                1,
-                false,
-                MIN_CELLS_PER_SLAB,
-                1,
-                u64::MAX
-            ),
-            1
-        );
-        assert_eq!(
-            slab_count(255, 255u64.pow(3), 1, true, MIN_CELLS_PER_SLAB, 1, u64::MAX),
-            8
-        );
-        // A few layers a slab while there are more slabs than workers:
-        // 23 layers on 2 workers, 7 slabs, rounded down to 6; 12 layers on
-        // 8 workers, one each.
-        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 3, u64::MAX), 6);
-        assert_eq!(slab_count(23, 283_360, 2, false, 1 << 14, 1, u64::MAX), 16);
-        assert_eq!(slab_count(12, 1 << 30, 8, false, 1 << 14, 3, u64::MAX), 8);
-        // A slab each for helpers where each gets enough cells: Marschner-
-        // Lobb 41^3 on 2 and 16 workers, the 64^3 sphere on 16 (else 1).
-        assert_eq!(
-            slab_count(40, 64_000, 2, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
-            2
-        );
-        assert_eq!(
-            slab_count(40, 64_000, 16, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
-            3
-        );
-        assert_eq!(
-            slab_count(63, 250_047, 16, false, MIN_CELLS_PER_SLAB, 3, 1 << 14),
-            15
-        );
-        assert_eq!(
-            slab_count(40, 64_000, 2, false, MIN_CELLS_PER_SLAB, 3, u64::MAX),
-            1
-        );
-        // Slabs stay under 2^31 layers (32-bit cache stamps).
-        assert_eq!(
-            slab_count(5 << 31, 5 << 31, 1, false, u64::MAX, 1, u64::MAX),
-            5
-        );
+        const M: u64 = MIN_CELLS_PER_SLAB;
+        const ANY: u64 = u64::MAX;
+        let n255 = 255u64.pow(3);
+        // (layers, cells, threads, refine, min cells, min layers, cells a
+        // worker, slabs)
+        type Case = (usize, u64, usize, bool, u64, usize, u64, usize);
+        let cases: &[Case] = &[
+            // Refinement off: no slab under the minimum, at least one, and
+            // whole shares for the workers (5 slabs' worth on 2: 4).
+            (24, 60_000, 2, false, M, 1, ANY, 1),
+            (24, 340_000, 2, false, M, 1, ANY, 4),
+            (255, n255, 2, false, M, 1, ANY, 16),
+            (0, 0, 2, false, M, 1, ANY, 1),
+            // Refinement on: several slabs a thread whatever the size.
+            (24, 294_912, 2, true, M, 1, ANY, 16),
+            // One thread: one slab without refinement, several with it.
+            (255, n255, 1, false, M, 1, ANY, 1),
+            (255, n255, 1, true, M, 1, ANY, 8),
+            // A few layers a slab while there are more slabs than workers:
+            // 23 layers on 2 workers, 7 slabs, rounded down to 6; 12 layers
+            // on 8 workers, one each.
+            (23, 283_360, 2, false, 1 << 14, 3, ANY, 6),
+            (23, 283_360, 2, false, 1 << 14, 1, ANY, 16),
+            (12, 1 << 30, 8, false, 1 << 14, 3, ANY, 8),
+            // A slab each for helpers where each gets enough cells:
+            // Marschner-Lobb 41^3 on 2 and 16 workers, the 64^3 sphere on
+            // 16 (else 1).
+            (40, 64_000, 2, false, M, 3, 1 << 14, 2),
+            (40, 64_000, 16, false, M, 3, 1 << 14, 3),
+            (63, 250_047, 16, false, M, 3, 1 << 14, 15),
+            (40, 64_000, 2, false, M, 3, ANY, 1),
+            // Slabs stay under 2^31 layers (32-bit cache stamps).
+            (5 << 31, 5 << 31, 1, false, ANY, 1, ANY, 5),
+        ];
+        for &(nz, cells, threads, refine, min_cells, min_layers, per_worker, want) in cases {
+            assert_eq!(
+                slab_count(nz, cells, threads, refine, min_cells, min_layers, per_worker),
+                want,
+                "{nz} layers, {cells} cells, {threads} threads, refine {refine}"
+            );
+        }
     }
 }
