@@ -27,7 +27,7 @@
 //! flat triangles that only the cell across cancels, and refinement with
 //! the trilinear topology from max level 3 up may mesh a cell again on
 //! sub-cells, whose strip in a face is dropped only where the neighbour is
-//! meshed again too (see the README's "How it works").
+//! meshed again too (see docs/how-it-works.md).
 //!
 //! ```
 //! use precisemc::{extract, Options, Volume};
