@@ -33,7 +33,11 @@ stage "rustfmt" cargo fmt --all -- --check
 stage "clippy" cargo clippy --all-targets -- -D warnings
 stage "cargo test" cargo test --all-targets
 stage "doc tests" cargo test --doc
-# The API documentation builds without warnings (broken intra-doc links).
+# The documentation builds without warnings (broken intra-doc links): the
+# internals' too, then the public API's (built last, so that target/doc
+# holds the public docs; each mode checks links the other does not).
+stage "rustdoc (private items)" env RUSTDOCFLAGS="-D warnings" \
+  cargo doc --no-deps --quiet --document-private-items
 stage "rustdoc" env RUSTDOCFLAGS="-D warnings" cargo doc --no-deps --quiet
 # The crate as crates.io would hold it (Cargo.toml's include list) builds
 # on its own. --offline: the stages above fetched its dependencies.
