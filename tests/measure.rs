@@ -557,14 +557,7 @@ fn c_api_matches_rust() {
         .with_spacing(spacing)
         .with_origin(origin);
     let mesh = extract(&vol, 0.0, &Options::default()).unwrap();
-    let want = measure(
-        &vol,
-        0.0,
-        &mesh.index_points,
-        &mesh.triangles,
-        &MeasureOptions::default(),
-    )
-    .unwrap();
+    let want = rust_measure(&vol, &mesh);
     let cv = c_volume(&values, dims, origin, spacing);
     let (pts, tris) = c_mesh(&mesh);
     let mut out = pmc_distance::default();
@@ -627,14 +620,7 @@ fn c_api_measures_offset_meshes_with_a_moved_origin() {
         .with_origin(origin);
     let plain = extract(&vol, 0.0, &Options::default()).unwrap();
     let moved = extract(&vol.with_index_offset(offset), 0.0, &Options::default()).unwrap();
-    let want = measure(
-        &vol,
-        0.0,
-        &plain.index_points,
-        &plain.triangles,
-        &MeasureOptions::default(),
-    )
-    .unwrap();
+    let want = rust_measure(&vol, &plain);
     let (pts, tris) = c_mesh(&moved);
     let run = |origin: [f64; 3]| {
         let cv = c_volume(&values, dims, origin, spacing);
@@ -684,14 +670,7 @@ fn c_measure_takes_index_points() {
             .with_index_offset(offset);
         let mesh = extract(&vol, 0.0, &Options::default()).unwrap();
         assert!(mesh.triangles.len() > 50);
-        let want = measure(
-            &vol,
-            0.0,
-            &mesh.index_points,
-            &mesh.triangles,
-            &MeasureOptions::default(),
-        )
-        .unwrap();
+        let want = rust_measure(&vol, &mesh);
         assert!(want.max < 0.05, "{want:?}");
         let cv = c_volume(&values, dims, far, spacing);
         let index: Vec<f64> = mesh.index_points.iter().flatten().copied().collect();
@@ -870,6 +849,19 @@ fn c_measure(
 }
 
 /// A mesh's world points and triangles as the C API takes them.
+/// `measure` of `mesh`'s index points at isovalue 0, default settings: what
+/// the C entry points are compared with.
+fn rust_measure(vol: &Volume<'_>, mesh: &precisemc::Mesh) -> Distance {
+    measure(
+        vol,
+        0.0,
+        &mesh.index_points,
+        &mesh.triangles,
+        &MeasureOptions::default(),
+    )
+    .unwrap()
+}
+
 fn c_mesh(mesh: &precisemc::Mesh) -> (Vec<f64>, Vec<i64>) {
     let pts = mesh.points.iter().flatten().copied().collect();
     let tris = mesh.triangles.iter().flatten().map(|&v| v as i64).collect();

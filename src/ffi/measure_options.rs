@@ -1,7 +1,7 @@
 //! `pmc_measure_options`: an opaque set of settings of the accuracy
 //! measure (`pmc_measure`), as `pmc_options` is of the extraction.
 
-use super::options::{PMC_MAX_INDEX_OFFSET, PMC_MAX_THREADS};
+use super::options::{thread_count, PMC_MAX_INDEX_OFFSET};
 use super::panic::{status_boundary, value_boundary, Failure};
 use super::status::PmcStatus;
 use crate::accuracy::{MeasureOptions, MIN_TOLERANCE};
@@ -184,12 +184,7 @@ pub unsafe extern "C" fn pmc_measure_options_set_threads(
     threads: u32,
 ) -> PmcStatus {
     let set = |o: &mut Settings| {
-        if threads > PMC_MAX_THREADS {
-            return Err(Failure::invalid(format!(
-                "{threads} threads is above the limit of {PMC_MAX_THREADS}"
-            )));
-        }
-        o.measure.threads = threads as usize;
+        o.measure.threads = thread_count(threads)?;
         Ok(())
     };
     // SAFETY: forwarded contract.

@@ -19,6 +19,17 @@ const _: () = assert!(PMC_MAX_LEVEL_LIMIT == crate::MAX_LEVEL_LIMIT);
 /// concurrency of `pmc_options_set_executor`.
 pub const PMC_MAX_THREADS: u32 = 4096;
 
+/// A thread count asked through the C API, refused above
+/// [`PMC_MAX_THREADS`] (the extraction's and the measure's setters).
+pub(crate) fn thread_count(threads: u32) -> Result<usize, Failure> {
+    if threads > PMC_MAX_THREADS {
+        return Err(Failure::invalid(format!(
+            "{threads} threads is above the limit of {PMC_MAX_THREADS}"
+        )));
+    }
+    Ok(threads as usize)
+}
+
 /// Largest magnitude of an index offset accepted by `pmc_extract` (2^31):
 /// each of the three offsets set with `pmc_options_set_index_offset` must
 /// lie in `-PMC_MAX_INDEX_OFFSET ..= PMC_MAX_INDEX_OFFSET`.
@@ -384,12 +395,7 @@ pub unsafe extern "C" fn pmc_options_set_threads(
     threads: u32,
 ) -> PmcStatus {
     let set = |o: &mut OptionsData| {
-        if threads > PMC_MAX_THREADS {
-            return Err(Failure::invalid(format!(
-                "{threads} threads is above the limit of {PMC_MAX_THREADS}"
-            )));
-        }
-        o.core.threads = threads as usize;
+        o.core.threads = thread_count(threads)?;
         Ok(())
     };
     // SAFETY: forwarded contract.
