@@ -828,7 +828,7 @@ mod tests {
     /// Rules A2 and B split a triangle in six, so a patch can have more
     /// leaves than 4^max_level per Marching Cubes triangle: the room
     /// reserved for a cell's patch must cover that (a debug assertion in
-    /// `slab_pass` checks each patch against its reservation; with 4^level
+    /// `cell_refine` checks each patch against its reservation; with 4^level
     /// reserved it failed here).
     #[test]
     fn a_cell_reservation_covers_six_way_splits() {

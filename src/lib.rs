@@ -66,6 +66,8 @@ pub mod samples;
 pub mod tables;
 
 mod assemble;
+mod cell_refine;
+mod cell_remesh;
 mod diagonals;
 mod extract;
 mod flat_map;

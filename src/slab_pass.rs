@@ -3,31 +3,23 @@
 //! onto `S_K` when refinement is on, their points welded within the
 //! slab; the extraction (`extract`) runs one a slab and welds the slabs.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::DVec3;
 
 use crate::assemble::in_grid_plane;
-use crate::diagonals::choose_diagonals;
+use crate::cell_refine::{refine_cell, CellInput, CellScratch};
 use crate::filter::ReconstructionFilter;
-use crate::flat_map::FlatMap;
 use crate::layers::{self, LayerScratch, ScratchPool};
-use crate::mc::topology_check::classic_is_trilinear;
 use crate::mc::{cell_triangles_borrowed, classic, Patch};
 use crate::memory::advise_huge_pages;
-use crate::near_bound;
-use crate::options::{Options, Topology};
+use crate::options::Options;
 use crate::par::OnCaller;
 use crate::point_key::{key, next_float, KeyMap};
 use crate::project::edge_crossing;
 use crate::recycle;
-use crate::refine::{
-    edge_key, faces_like_marching_cubes, shared_fixed_axes, sound_patch, soundly_connected,
-    vector_area, Counters, EdgeCache, Refinable, Refiner, Tri,
-};
-use crate::subcells;
+use crate::refine::Counters;
 use crate::tables::cube::{on_one_face, CORNERS, CROSSED_EDGES, EDGES, EDGE_AXIS};
 use crate::volume::{Grid, Scalar};
 
@@ -65,10 +57,6 @@ pub(crate) struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     /// nothing is reported until the end.
     pub(crate) poll: Option<&'a OnCaller<'a>>,
 }
-
-/// How many refined cells of a slab are all timed before only one in
-/// eight is (see [`SlabOut::refine_time`]).
-const TIMED_CELLS: u64 = 64;
 
 /// What one slab of cell layers produced: points (index coordinates,
 /// welded within the slab), triangles on them, their levels, counters.
@@ -128,12 +116,6 @@ impl SlabOut {
     }
 }
 
-/// The most leaves a refined cell's patch can have (its Marching Cubes
-/// triangles times [`crate::options::Rule::most_children`] to the power
-/// max_level) for which the slab's buffers are reserved for the whole
-/// patch before refining it (fallibly; see `slab_pass`).
-const CELL_RESERVE_LIMIT: u64 = 1 << 16;
-
 /// Marching Cubes (and refinement) on cell layers `k0..k1`.
 ///
 /// With refinement off, a point strictly inside its grid edge belongs to
@@ -189,16 +171,6 @@ fn surface_guess(cell_dims: [usize; 3], layers: usize) -> usize {
     (3.0 * faces).min((1 << 22) as f64) as usize
 }
 
-/// Squared twice-area (local cell units) below which a refined triangle
-/// counts as having no area (see the attempts in [`slab_pass`]); refined
-/// triangles of a unit cell are many orders of magnitude larger.
-const MIN_DOUBLE_AREA2: f64 = 1e-28;
-
-/// Leaves a refined cell may make beyond what is left under the cap when
-/// it may be meshed again on sub-cells (its stalled patch is replaced,
-/// often by a smaller one; see [`crate::subcells`]).
-const STALL_SLACK: u64 = 1 << 20;
-
 /// Triangles a slab gathers before adding them to the shared count (it
 /// reports the rest when it ends).
 const REPORT_BATCH: u64 = 1024;
@@ -232,21 +204,13 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
         let _ = out.verts.try_reserve_exact(tris / 2);
     }
     let mut map: KeyMap<u32> = KeyMap::default();
-    let mut local: KeyMap<u32> = KeyMap::default();
     let mut patch = Patch {
         pinch_fans: REFINE,
         ..Patch::default()
     };
-    // Scratch for the Classic topology's check (`mc::topology_check`).
-    let mut check = Patch::default();
-    let mut cache = EdgeCache::default();
-    let mut kept: Vec<[u32; 3]> = Vec::with_capacity(16);
-    let mut tested = Vec::with_capacity(16);
-    let mut pos_of: Vec<DVec3> = Vec::with_capacity(16);
-    let mut uses: Vec<(u64, u8)> = Vec::with_capacity(48);
-    let mut edges = FlatMap::<u32>::default();
-    let mut seen = FlatMap::<()>::default();
-    let mut count_leaves: Vec<([u32; 3], [DVec3; 3], u8)> = Vec::new();
+    // The cell's Marching Cubes triangles and their corners' positions
+    // (in `rs.kept` and `rs.pos_of`), and what refining it needs.
+    let mut rs = CellScratch::new();
     let [nx, ny, _] = sh.cell_dims;
     let count_only = matches!(mode, Mode::Count { .. });
     let (Mode::Output { cap } | Mode::Count { cap }) = mode;
@@ -409,8 +373,8 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     sh.index_offset[2] + k as i64,
                 ];
                 let cell_f = DVec3::new(cell_g[0] as f64, cell_g[1] as f64, cell_g[2] as f64);
-                kept.clear();
-                pos_of.clear();
+                rs.kept.clear();
+                rs.pos_of.clear();
                 let mc_start = out.tris.len();
                 // The point on each grid edge the surface crosses, each edge
                 // once (every topology puts one point on each), then the
@@ -556,10 +520,10 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         out.tris.push(tid);
                         continue;
                     }
-                    kept.push(tid);
-                    pos_of.push(loc[tri[0] as usize]);
-                    pos_of.push(loc[tri[1] as usize]);
-                    pos_of.push(loc[tri[2] as usize]);
+                    rs.kept.push(tid);
+                    rs.pos_of.push(loc[tri[0] as usize]);
+                    rs.pos_of.push(loc[tri[1] as usize]);
+                    rs.pos_of.push(loc[tri[2] as usize]);
                 }
                 if !REFINE {
                     // The triangles went straight to the output.
@@ -591,468 +555,17 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     out.counters.nodes_per_level[0] += n as u64;
                     continue;
                 }
-                out.mc_tris += kept.len() as u64;
-                // Two clock reads cost about 0.1 us on a virtual machine, a
-                // few per cent of a lightly refined cell: the first cells
-                // of a slab are timed, then one in eight.
-                let timed = out.refined_cells < TIMED_CELLS || out.refined_cells % 8 == 0;
-                let tr = timed.then(Instant::now);
-                let Some(fc) = edge_filter.or_else(|| sh.filter.load([i, j, k])) else {
-                    out.nonfinite += 1;
-                    continue;
+                let cell = CellInput {
+                    corners: &c,
+                    f: &f,
+                    case,
+                    interior_points: !extra.is_empty(),
+                    ijk: [i, j, k],
+                    cell_f,
+                    filter: edge_filter,
                 };
-                // Under a cap, the leaves this cell may add before the
-                // pass is over it for sure (the other slabs' count lags
-                // behind): past it the cell reports at its end, where its
-                // final patch decides. The refinement of one attempt stops
-                // only past the cap itself (and, for a cell that may be
-                // meshed again on sub-cells, room for its stalled patch,
-                // which is replaced): an attempt may still be dropped for
-                // a smaller one (see the attempts below), and what is left
-                // of the cap depends on how far the other slabs have got,
-                // so stopping there made the level a cap lowers to depend
-                // on the thread count.
-                let produced_before = produced(&out, count_only);
-                let (remaining, leaf_budget) = if cap == u64::MAX {
-                    (u64::MAX, u64::MAX)
-                } else {
-                    let unreported = produced_before - reported;
-                    let r = cap.saturating_sub(sh.emitted.load(Ordering::Relaxed) + unreported);
-                    let slack = if sh.subcells { STALL_SLACK } else { 0 };
-                    (r, cap.saturating_add(slack))
-                };
-                let end = CellEnd {
-                    t_start: out.tris.len(),
-                    timer: tr,
-                    produced_before,
-                    remaining,
-                };
-                // Interior edges split only in cells free of ties (a sample
-                // at the isovalue is none for the trilinear filter: see
-                // `Refinable`).
-                let mut refinable = Refinable::of_cell(&f, F::MULTILINEAR && F::LINEAR_ON_EDGES);
-                // A table patch that joins the crossings otherwise than
-                // `S_K` can never be refined onto it: its faces' edges
-                // only (see `mc::topology_check`).
-                if opts.topology == Topology::Classic
-                    && !classic_is_trilinear(case, &f, &mut check.tris, &mut check.extra)
-                {
-                    refinable.interior = false;
-                    out.counters.unsound_cells += 1;
-                }
-                // Where the bounds on the interpolant show that every test
-                // at level 0 would find its sample near, the cell keeps its
-                // Marching Cubes triangles: emit them as refinement would,
-                // without running the tests (see `near_bound`).
-                let settled = if F::MULTILINEAR
-                    && F::LINEAR_ON_EDGES
-                    && refinable.interior
-                    && refinable.shift[6] == 0.0
-                    && !count_only
-                    && sh.max_level > 0
-                    && extra.is_empty()
-                {
-                    let far = cell_f.abs().max_element();
-                    near_bound::all_near(&c, sh.iso, far, &kept, &pos_of, opts.epsilon, opts.rule)
-                        // The patch check the refined patch would face
-                        // (unsplit, it fails only when nearly flat).
-                        .filter(|_| {
-                            let area = pos_of
-                                .chunks_exact(3)
-                                .fold(DVec3::ZERO, |a, p| a + vector_area([p[0], p[1], p[2]]));
-                            faces_like_marching_cubes(area, &pos_of)
-                        })
-                } else {
-                    None
-                };
-                if let Some(samples) = settled {
-                    let n = kept.len() as u64;
-                    if n > leaf_budget {
-                        sh.over_cap.store(true, Ordering::Relaxed);
-                        break 'layers;
-                    }
-                    out.tris.extend_from_slice(&kept);
-                    out.levels.resize(out.levels.len() + kept.len(), 0);
-                    out.counters.samples += samples;
-                    out.counters.per_level[0] += n;
-                    out.counters.nodes_per_level[0] += n;
-                    if let Some(p) = sh.poll {
-                        p.poll_timed();
-                    }
-                    if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
-                        break 'layers;
-                    }
-                    continue;
-                }
-                // Polygons whose table diagonals refinement cannot follow
-                // are re-cut first (see `diagonals`).
-                tested.clear();
-                if refinable.interior {
-                    out.counters.recut_polygons += choose_diagonals::<F>(
-                        &fc,
-                        refinable.iso(sh.iso, 0, DVec3::ZERO),
-                        opts.epsilon,
-                        &mut kept,
-                        &mut pos_of,
-                        &mut tested,
-                    ) as u64;
-                }
-                // Boundary edges of the cell's patch lie on cell faces.
-                uses.clear();
-                for t in &kept {
-                    for e in 0..3 {
-                        let key = edge_key(t[e], t[(e + 1) % 3]);
-                        match uses.iter_mut().find(|u| u.0 == key) {
-                            Some(u) => u.1 += 1,
-                            None => uses.push((key, 1)),
-                        }
-                    }
-                }
-                let (t_start, v_start) = (out.tris.len(), out.verts.len());
-                let before = out.counters.clone();
-                local.clear();
-                // Room for the cell's whole refined patch, reserved up front
-                // where its worst case is modest (4^max_level leaves per
-                // Marching Cubes triangle under rules A and A1, 6^max_level
-                // under A2 and B: up to level 6-8 or 4-6 by the cell's
-                // triangles; the slab's map gets the points its boundary
-                // edges can split into): the slab's buffers, the large
-                // allocations, then grow here, where a failure is an error,
-                // and not while the patch is emitted, where it would abort
-                // the process. (`reserved`: the leaves reserved for, which
-                // a debug assertion checks the patch against.)
-                let mut reserved = usize::MAX;
-                if !count_only {
-                    let level = sh.max_level.min(31);
-                    let worst = (kept.len() as u64)
-                        .saturating_mul(opts.rule.most_children().saturating_pow(level));
-                    if worst <= CELL_RESERVE_LIMIT {
-                        let n = worst as usize;
-                        let on_faces = 3 * (kept.len() << level) + 16;
-                        let room = try_room(&mut out.tris, n)
-                            .and_then(|_| try_room(&mut out.levels, n))
-                            .and_then(|_| try_room(&mut out.verts, n + 16))
-                            .and_then(|_| {
-                                map.try_reserve(on_faces).map_err(|_| {
-                                    (map.len() + on_faces).max(2 * map.capacity())
-                                        * size_of::<([u64; 3], u32)>()
-                                })
-                            });
-                        if let Err(bytes) = room {
-                            out.scratch_failed = bytes;
-                            break 'layers;
-                        }
-                        reserved = n;
-                    }
-                }
-                // Whether refinement merged two of the cell's points (split
-                // points that weld onto another point, which straight
-                // gradient lines meeting on S_K can cause). Each new point
-                // is created once (the edge cache hands its id to the
-                // triangle on the other side), so any weld inside the cell,
-                // or onto one of its Marching Cubes points, or twice onto
-                // the same point of a neighbour, is a merge. Without one,
-                // the patch is a subdivision of the Marching Cubes patch
-                // and only its facing needs checking.
-                // Attempts, each only when the previous one gave an unsound
-                // patch: first, interior samples whose gradient line leaves
-                // the cell split at the nearest point of S_K inside the cell
-                // (see Refiner::interior_fallback); second, they stay
-                // unsplit; third, interior edges and centres stay whole.
-                // Edges on the cell's faces decide alike in every attempt,
-                // so neighbours still match.
-                const ATTEMPTS: usize = 3;
-                for attempt in 0..ATTEMPTS {
-                    cache.clear();
-                    count_leaves.clear();
-                    let mut merged = false;
-                    let mut sliver = false;
-                    let grow_failed = std::cell::Cell::new(0usize);
-                    let nearest_before = out.counters.nearest_splits;
-                    let mut area = DVec3::ZERO;
-                    seen.clear();
-                    for t in &kept {
-                        for &v in t {
-                            seen.insert_new(v as u64, ());
-                        }
-                    }
-                    // Distinct ids for new points when counting (the edge
-                    // cache is keyed by ids; 0..16 are the cell's own points).
-                    let mut next_id = 16u32;
-                    let tick = || {
-                        if let Some(p) = sh.poll {
-                            p.poll_timed();
-                        }
-                    };
-                    let mut refiner = Refiner::<F> {
-                        cell: &fc,
-                        iso: sh.iso,
-                        epsilon: opts.epsilon,
-                        max_level: sh.max_level,
-                        rule: opts.rule,
-                        counters: &mut out.counters,
-                        cache: &mut cache,
-                        interior_fallback: attempt == 0,
-                        leaf_budget,
-                        stall_len2: if sh.subcells {
-                            subcells::stall_len2(sh.max_level)
-                        } else {
-                            f64::INFINITY
-                        },
-                        cancel: sh.cancel,
-                        polls: 0,
-                        tick: sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
-                        alloc_failed: 0,
-                        refinable: if attempt < ATTEMPTS - 1 {
-                            refinable
-                        } else {
-                            Refinable {
-                                interior: false,
-                                ..refinable
-                            }
-                        },
-                    };
-                    if attempt == 0 {
-                        // The diagonals' tests, already run to choose them.
-                        for (a, b, s) in &tested {
-                            refiner.preset(*a, *b, s);
-                        }
-                    }
-                    for (n, t) in kept.iter().enumerate() {
-                        let p = [pos_of[3 * n], pos_of[3 * n + 1], pos_of[3 * n + 2]];
-                        let mut fixed = [0u8; 3];
-                        for e in 0..3 {
-                            let key = edge_key(t[e], t[(e + 1) % 3]);
-                            let boundary = uses.iter().any(|u| u.0 == key && u.1 == 1);
-                            if boundary {
-                                fixed[e] = shared_fixed_axes(p[e], p[(e + 1) % 3]);
-                            }
-                        }
-                        let root = Tri {
-                            v: *t,
-                            p,
-                            fixed,
-                            level: 0,
-                            near: 0,
-                        };
-                        if count_only {
-                            // Leaves are kept only to mesh a stalled cell
-                            // again (and count that).
-                            let leaves = &mut count_leaves;
-                            let within_budget = refiner.run(
-                                root,
-                                sh.subcells,
-                                &mut |t: &Tri| {
-                                    if sh.subcells {
-                                        leaves.push((t.v, t.p, t.level));
-                                    }
-                                },
-                                &mut |_| {
-                                    next_id += 1;
-                                    next_id
-                                },
-                            );
-                            if refiner.alloc_failed != 0 {
-                                out.scratch_failed = refiner.alloc_failed;
-                                break 'layers;
-                            }
-                            if !within_budget {
-                                // More leaves than the cap: the level does
-                                // not fit, whatever the rest counts (or
-                                // the call was stopped, which wins).
-                                sh.over_cap.store(true, Ordering::Relaxed);
-                                break 'layers;
-                            }
-                        } else {
-                            let verts = &mut out.verts;
-                            let (map, local) = (&mut map, &mut local);
-                            let (merged, area, seen) = (&mut merged, &mut area, &mut seen);
-                            let sliver = &mut sliver;
-                            let tris = &mut out.tris;
-                            let levels = &mut out.levels;
-                            // Past the cell's reservation (a patch that may
-                            // outgrow CELL_RESERVE_LIMIT) the buffers grow
-                            // fallibly: an allocation that fails is
-                            // recorded, nothing more is stored, and the
-                            // pass fails with OutOfMemory after this tree
-                            // (an infallible push aborted the host).
-                            let within_budget = refiner.run(
-                                root,
-                                true,
-                                &mut |tri: &Tri| {
-                                    if grow_failed.get() != 0 {
-                                        return;
-                                    }
-                                    if tris.len() == tris.capacity()
-                                        || levels.len() == levels.capacity()
-                                    {
-                                        let room = try_room(tris, tris.len().max(1024))
-                                            .and_then(|_| try_room(levels, levels.len().max(1024)));
-                                        if let Err(bytes) = room {
-                                            grow_failed.set(bytes);
-                                            return;
-                                        }
-                                    }
-                                    tris.push(tri.v);
-                                    levels.push(tri.level);
-                                    let a = vector_area(tri.p);
-                                    *sliver |= a.length_squared() < MIN_DOUBLE_AREA2;
-                                    *area += a;
-                                },
-                                &mut |p: DVec3| {
-                                    let gp = cell_f + p;
-                                    let next = verts.len() as u32;
-                                    // A point inside the open cell belongs to
-                                    // no other cell: a small per-cell map
-                                    // welds it (same ids, less memory
-                                    // traffic than the slab's map). Decided
-                                    // on the global coordinates: far from the
-                                    // origin, a point just inside the cell
-                                    // can round onto its face, where it must
-                                    // weld with the face's other points.
-                                    let inner = strictly_inside(gp, cell_f);
-                                    let m = if inner { &mut *local } else { &mut *map };
-                                    if grow_failed.get() != 0 {
-                                        return 0;
-                                    }
-                                    let room =
-                                        if verts.len() == verts.capacity() {
-                                            try_room(verts, verts.len().max(1024))
-                                        } else {
-                                            Ok(())
-                                        }
-                                        .and_then(|_| {
-                                            m.try_reserve(1).map_err(|_| {
-                                                (2 * m.capacity().max(1024))
-                                                    .saturating_mul(size_of::<([u64; 3], u32)>())
-                                            })
-                                        });
-                                    if let Err(bytes) = room {
-                                        grow_failed.set(bytes);
-                                        return 0;
-                                    }
-                                    let mut new = false;
-                                    let id = *m.entry(key(gp)).or_insert_with(|| {
-                                        new = true;
-                                        verts.push(gp);
-                                        next
-                                    });
-                                    if !new
-                                        && (inner
-                                            || id as usize >= v_start
-                                            || seen.insert_new(id as u64, ()).is_some())
-                                    {
-                                        *merged = true;
-                                    }
-                                    id
-                                },
-                            );
-                            let failed = grow_failed.get().max(refiner.alloc_failed);
-                            if failed != 0 {
-                                out.scratch_failed = failed;
-                                break 'layers;
-                            }
-                            if !within_budget {
-                                // Over the cap (or stopped): this pass's
-                                // output is dropped, stop here.
-                                sh.over_cap.store(true, Ordering::Relaxed);
-                                break 'layers;
-                            }
-                        }
-                    }
-                    // Nearest points (of samples near a face, or off the
-                    // band along the faces) can land within rounding of
-                    // each other without welding: a triangle with no area
-                    // means this attempt's nearest splits are undone.
-                    let slivered = sliver && out.counters.nearest_splits != nearest_before;
-                    // The soundness check's edge map could not grow.
-                    let mut check_failed = 0;
-                    let accept = count_only
-                        || attempt == ATTEMPTS - 1
-                        || !refinable.interior
-                        || (!slivered
-                            && if merged {
-                                // A nearest point may weld with another point
-                                // into a vertex where the patch touches itself,
-                                // which the checks below do not see.
-                                out.counters.nearest_splits == nearest_before
-                                    && sound_patch(
-                                        cell_f,
-                                        &out.tris[t_start..],
-                                        &out.verts,
-                                        &pos_of,
-                                        &mut edges,
-                                    )
-                                    .unwrap_or_else(|bytes| {
-                                        check_failed = bytes;
-                                        true
-                                    })
-                            } else {
-                                debug_assert!(
-                                    soundly_connected(&out.tris[t_start..], &mut edges)
-                                        != Ok(false),
-                                    "a patch without merged points is a subdivision"
-                                );
-                                faces_like_marching_cubes(area, &pos_of)
-                            });
-                    if check_failed != 0 {
-                        out.scratch_failed = check_failed;
-                        break 'layers;
-                    }
-                    if accept {
-                        break;
-                    }
-                    drop_patch(&mut out, &mut map, &mut local, t_start, v_start, None);
-                    let samples = out.counters.samples;
-                    out.counters = before.clone();
-                    out.counters.samples = samples;
-                    if attempt + 2 == ATTEMPTS {
-                        out.counters.unsound_cells += 1;
-                    }
-                }
-                debug_assert!(
-                    out.tris.len() - t_start <= reserved,
-                    "a patch of {} leaves outgrew its reservation of {reserved}",
-                    out.tris.len() - t_start
-                );
-                // A patch still far from S_K with long edges at the last
-                // level: refinement stalled on a fold; mesh the cell again
-                // on sub-cells, joined to the outline drawn above.
-                if sh.subcells && out.counters.stalled_leaves > before.stalled_leaves {
-                    let at = CellAt {
-                        f: &f,
-                        cell_f,
-                        t_start,
-                        v_start,
-                        above_before: before.above_eps,
-                    };
-                    // Polled as refinement is: progress and the stop
-                    // request (the nested extraction and the outlines of
-                    // a large patch take seconds).
-                    let tick = || {
-                        if let Some(p) = sh.poll {
-                            p.poll_timed();
-                        }
-                    };
-                    let poll = subcells::Poll::new(
-                        sh.cancel,
-                        sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
-                    );
-                    if count_only {
-                        count_remeshed(&mut out, &count_leaves, &at, opts, sh.max_level, &poll);
-                    } else {
-                        let (m, l) = (&mut map, &mut local);
-                        remesh_cell(&mut out, m, l, &at, opts, sh.max_level, &poll);
-                    }
-                    if sh.cancel.load(Ordering::Relaxed) {
-                        // Stopped (the pass's output is dropped).
-                        break 'layers;
-                    }
-                }
-                if let Some(p) = sh.poll {
-                    p.poll_timed();
-                }
-                if refined_cell_done(sh, &mut out, count_only, end, &mut reported, cap) {
+                let flow = refine_cell(sh, &mut out, &mut map, &mut reported, mode, cell, &mut rs);
+                if flow.is_break() {
                     break 'layers;
                 }
             }
@@ -1123,207 +636,9 @@ fn read_sample_layer<T: Scalar>(
     }
 }
 
-/// A cell being refined in a slab: corner values less the isovalue, lowest
-/// corner (global index coordinates), where its patch starts in the
-/// slab's triangles and points, and the slab's count of leaves above
-/// epsilon before it.
-struct CellAt<'a> {
-    f: &'a [f64; 8],
-    cell_f: DVec3,
-    t_start: usize,
-    v_start: usize,
-    above_before: u64,
-}
-
-/// Reserves room for `n` more items in `v`; on failure, the bytes of the
-/// buffer that could not be had (at least double the old one, as `Vec`
-/// grows).
-fn try_room<T>(v: &mut Vec<T>, n: usize) -> Result<(), usize> {
-    v.try_reserve(n).map_err(|_| {
-        v.len()
-            .saturating_add(n)
-            .max(v.capacity().saturating_mul(2))
-            .saturating_mul(size_of::<T>())
-    })
-}
-
-/// Removes a cell's patch from the slab: its triangles (and their levels)
-/// from `t_start` on and the points it made, from `v_start` on, with their
-/// entries in the welding maps. With `poll`, stops removing map entries
-/// once it finds the extraction stopped (the slab's output and its map are
-/// then not used again).
-fn drop_patch(
-    out: &mut SlabOut,
-    map: &mut KeyMap<u32>,
-    local: &mut KeyMap<u32>,
-    t_start: usize,
-    v_start: usize,
-    poll: Option<&subcells::Poll<'_>>,
-) {
-    for v in out.verts.drain(v_start..) {
-        if poll.is_some_and(|p| p.step().is_none()) {
-            break;
-        }
-        map.remove(&key(v));
-    }
-    local.clear();
-    out.tris.truncate(t_start);
-    out.levels.truncate(t_start);
-}
-
-/// Numbers the points of a patch `0..` in order of first use: the
-/// patch's triangles over those numbers, and the ids in that order;
-/// `None` when `poll` finds the extraction stopped.
-fn renumber(
-    tris: impl Iterator<Item = [u32; 3]>,
-    poll: &subcells::Poll<'_>,
-) -> Option<(Vec<[u32; 3]>, Vec<u32>)> {
-    let mut ids: Vec<u32> = Vec::new();
-    let mut index: HashMap<u32, u32> = HashMap::new();
-    let tris = tris
-        .map(|t| {
-            poll.step()?;
-            Some(t.map(|v| {
-                *index.entry(v).or_insert_with(|| {
-                    ids.push(v);
-                    ids.len() as u32 - 1
-                })
-            }))
-        })
-        .collect::<Option<_>>()?;
-    Some((tris, ids))
-}
-
-/// Moves a re-meshed cell's output in the per-level counts from the old
-/// patch's leaf levels to the new patch's (`level` is the pass's maximum:
-/// nodes there are leaves), and its leaves above epsilon to the new
-/// patch's.
-fn recount(out: &mut SlabOut, old: &[u8], new: &subcells::Remeshed, at: &CellAt<'_>, level: u32) {
-    let c = &mut out.counters;
-    for (&l, sign) in old
-        .iter()
-        .map(|l| (l, -1i64))
-        .chain(new.levels.iter().map(|l| (l, 1)))
-    {
-        let l = (l as usize).min(15);
-        c.per_level[l] = c.per_level[l].wrapping_add_signed(sign);
-        if l == level as usize {
-            c.nodes_per_level[l] = c.nodes_per_level[l].wrapping_add_signed(sign);
-        }
-    }
-    c.above_eps = at.above_before + new.above_eps;
-    c.cells_on_subcells += 1;
-}
-
-/// In a pass that only counts: counts the patch that [`remesh_cell`] would
-/// put in place of the cell's stalled one (`leaves`: ids, local
-/// positions, levels). Stops early, counting nothing, when `poll` finds
-/// the extraction stopped.
-fn count_remeshed(
-    out: &mut SlabOut,
-    leaves: &[([u32; 3], [DVec3; 3], u8)],
-    at: &CellAt<'_>,
-    options: &Options,
-    max_level: u32,
-    poll: &subcells::Poll<'_>,
-) {
-    let Some((old_tris, ids)) = renumber(leaves.iter().map(|l| l.0), poll) else {
-        return;
-    };
-    let mut old_pos = vec![DVec3::ZERO; ids.len()];
-    for (t, l) in old_tris.iter().zip(leaves) {
-        for e in 0..3 {
-            old_pos[t[e] as usize] = l.1[e];
-        }
-    }
-    if let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris, poll) {
-        let old: Vec<u8> = leaves.iter().map(|l| l.2).collect();
-        recount(out, &old, &new, at, max_level);
-    }
-}
-
-/// Replaces the cell's refined patch (the slab's triangles from
-/// `at.t_start` on) by the one [`subcells::remesh`] makes, when it makes
-/// one. Points from `at.v_start` on were made for the old patch: they are
-/// dropped, and those on its outline made again (so a neighbour still
-/// finds them in `map`); earlier points keep their ids. When `poll` finds
-/// the extraction stopped, returns early, the cell's patch then possibly
-/// dropped (the pass's output is not used).
-fn remesh_cell(
-    out: &mut SlabOut,
-    map: &mut KeyMap<u32>,
-    local: &mut KeyMap<u32>,
-    at: &CellAt<'_>,
-    options: &Options,
-    max_level: u32,
-    poll: &subcells::Poll<'_>,
-) {
-    let Some((old_tris, ids)) = renumber(out.tris[at.t_start..].iter().copied(), poll) else {
-        return;
-    };
-    let old_gp: Vec<DVec3> = ids.iter().map(|&v| out.verts[v as usize]).collect();
-    let old_pos: Vec<DVec3> = old_gp.iter().map(|&p| p - at.cell_f).collect();
-    let Some(new) = subcells::remesh(at.f, options, max_level, &old_pos, &old_tris, poll) else {
-        return;
-    };
-    let old_levels = out.levels.split_off(at.t_start);
-    recount(out, &old_levels, &new, at, max_level);
-    drop_patch(out, map, local, at.t_start, at.v_start, Some(poll));
-    if poll.now().is_none() {
-        return;
-    }
-    let base = ids.len();
-    let mut new_id = vec![u32::MAX; base + new.points.len()];
-    for t in &new.tris {
-        if poll.step().is_none() {
-            out.tris.truncate(at.t_start);
-            return;
-        }
-        let mut tri = [0u32; 3];
-        for (x, &v) in t.iter().enumerate() {
-            let v = v as usize;
-            if new_id[v] == u32::MAX {
-                let next = out.verts.len() as u32;
-                new_id[v] = if v >= base {
-                    let lp = new.points[v - base];
-                    let gp = at.cell_f + lp;
-                    if subcells::faces(lp) != 0 {
-                        // On the new outline, in a face: a neighbour meshed
-                        // again too makes the same point (the face's
-                        // sub-samples and decisions are alike on both
-                        // sides) and must find it, for the two strips
-                        // between the outlines to cancel.
-                        *map.entry(key(gp)).or_insert_with(|| {
-                            out.verts.push(gp);
-                            next
-                        })
-                    } else {
-                        // Strictly inside the cell: this cell's alone.
-                        out.verts.push(gp);
-                        next
-                    }
-                } else if (ids[v] as usize) < at.v_start {
-                    ids[v]
-                } else {
-                    // A point of the outline made for the old patch: a
-                    // neighbour looks it up by position.
-                    let gp = old_gp[v];
-                    *map.entry(key(gp)).or_insert_with(|| {
-                        out.verts.push(gp);
-                        next
-                    })
-                };
-            }
-            tri[x] = new_id[v];
-        }
-        out.tris.push(tri);
-    }
-    out.levels.extend_from_slice(&new.levels);
-}
-
 /// Notes which of the slab's triangles from index `from` on lie in a grid
 /// plane (checked while their points are in cache).
-fn note_flat(out: &mut SlabOut, from: usize) {
+pub(crate) fn note_flat(out: &mut SlabOut, from: usize) {
     for n in from..out.tris.len() {
         if in_grid_plane(out.tris[n].map(|v| out.verts[v as usize])) {
             out.flat_tris.push(n as u32);
@@ -1331,47 +646,11 @@ fn note_flat(out: &mut SlabOut, from: usize) {
     }
 }
 
-/// Where a refined cell's output starts and what the pass had produced
-/// and had left under the cap before it (see [`refined_cell_done`]).
-struct CellEnd {
-    /// The cell's first triangle in the slab's output.
-    t_start: usize,
-    /// When the cell started, if it is one of the timed cells.
-    timer: Option<Instant>,
-    produced_before: u64,
-    remaining: u64,
-}
-
-/// Ends a refined cell: notes its flat triangles, counts it (and its time
-/// when timed), and reports the slab's output to the shared count when it
-/// grew by many or by more than was left (one row of deeply refined cells
-/// can hold far more than the cap). True when the pass is over the cap.
-fn refined_cell_done<T: Scalar, F: ReconstructionFilter>(
-    sh: &Shared<'_, T, F>,
-    out: &mut SlabOut,
-    count_only: bool,
-    end: CellEnd,
-    reported: &mut u64,
-    cap: u64,
-) -> bool {
-    if !count_only {
-        note_flat(out, end.t_start);
-    }
-    out.refined_cells += 1;
-    if let Some(start) = end.timer {
-        out.timed_refine += start.elapsed();
-        out.timed_cells += 1;
-    }
-    let n = produced(out, count_only);
-    (n - *reported >= 4096 || n - end.produced_before > end.remaining)
-        && report_emitted(sh, n, reported, cap)
-}
-
 /// Whether the point `gp` (global index coordinates) lies in the open cell
 /// whose lowest corner is `cell_f`. Decided on the global coordinates: far
 /// from the origin a point just inside can round onto the cell's boundary.
 #[inline(always)]
-fn strictly_inside(gp: DVec3, cell_f: DVec3) -> bool {
+pub(crate) fn strictly_inside(gp: DVec3, cell_f: DVec3) -> bool {
     gp.cmpgt(cell_f).all() && gp.cmplt(cell_f + DVec3::ONE).all()
 }
 
@@ -1399,7 +678,7 @@ fn case_row(ins: &[&[u8]; 4], cases: &mut [u8]) {
 
 /// The triangles a slab has produced so far: those in its output, or in a
 /// count pass the leaves it counted.
-fn produced(out: &SlabOut, count_only: bool) -> u64 {
+pub(crate) fn produced(out: &SlabOut, count_only: bool) -> u64 {
     if count_only {
         out.counters.per_level.iter().sum()
     } else {
@@ -1410,7 +689,7 @@ fn produced(out: &SlabOut, count_only: bool) -> u64 {
 /// Adds the slab's `n` triangles produced so far (see [`produced`]) to the
 /// shared count, less those reported before; returns true (and raises
 /// `over_cap`) when the total exceeds `cap`.
-fn report_emitted<T: Scalar, F: ReconstructionFilter>(
+pub(crate) fn report_emitted<T: Scalar, F: ReconstructionFilter>(
     sh: &Shared<'_, T, F>,
     n: u64,
     reported: &mut u64,
