@@ -384,9 +384,6 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                 let cell_slot = j * nxs + i;
                 for &e in &crossed[..*n_crossed as usize] {
                     let e = e as usize;
-                    let [a, b] = EDGES[e];
-                    let ca = CORNERS[a as usize];
-                    let ax = EDGE_AXIS[e] as usize;
                     // The grid edge's slot in the per-layer id cache and
                     // the stamp of its layer (not used when only counting).
                     let at = cell_slot + edge_slots[k & 1][e];
@@ -394,63 +391,15 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                     let cached = layers::lookup(edge_ids[at], edge_stamp);
                     if let (Some(id), false) = (cached, count_only) {
                         // A cell before this one placed the point, with the
-                        // coordinates computed below.
+                        // coordinates `edge_point` gives.
                         ids[e] = id;
                         if REFINE {
                             loc[e] = out.verts[id as usize] - cell_f;
                         }
                         continue;
                     }
-                    let (sa, sb) = (c[a as usize], c[b as usize]);
-                    // vtkMarchingCubes: t from the lower corner.
-                    let mut t = (sh.iso - sa) / (sb - sa);
-                    if !t.is_finite() || !(sb - sa).is_finite() {
-                        // A difference overflowed (samples beyond half of
-                        // f64::MAX with opposite signs; with only the
-                        // denominator infinite, t came out 0, a point on
-                        // the corner): the same ratio of halves.
-                        t = ((0.5 * sh.iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa)).clamp(0.0, 1.0);
-                    }
-                    if let Some(fc) = &edge_filter {
-                        let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
-                        if let Some(s) = edge_crossing::<F>(fc, sh.iso, corner, ax) {
-                            t = s;
-                        }
-                    }
-                    let (x, y, z) = (
-                        (cell_g[0] + ca[0] as i64) as f64,
-                        (cell_g[1] + ca[1] as i64) as f64,
-                        (cell_g[2] + ca[2] as i64) as f64,
-                    );
-                    // Built in registers: a store of one lane then a load of
-                    // the vector stalls store forwarding.
-                    let (base, gp) = match ax {
-                        0 => (x, DVec3::new(x + t, y, z)),
-                        1 => (y, DVec3::new(x, y + t, z)),
-                        _ => (z, DVec3::new(x, y, z + t)),
-                    };
-                    let mut moved = base + t;
-                    let mut gp = gp;
-                    if edge_filter.is_some() && (moved == base || moved == base + 1.0) {
-                        // A cubic's crossing within rounding of a corner
-                        // (samples a rounding away from the isovalue) would
-                        // weld with the crossings of the corner's other
-                        // edges: a polygon visiting two of them apart then
-                        // touches itself there, and the patch refined from
-                        // it is not a manifold (a crack; a debug assertion).
-                        // The point stays on its own edge, one float off
-                        // the corner (the offset is exact).
-                        moved = next_float(
-                            if moved == base { base } else { base + 1.0 },
-                            moved == base,
-                        );
-                        let t = moved - base;
-                        gp = match ax {
-                            0 => DVec3::new(x + t, y, z),
-                            1 => DVec3::new(x, y + t, z),
-                            _ => DVec3::new(x, y, z + t),
-                        };
-                    }
+                    let (gp, inside_edge) =
+                        edge_point::<F>(&c, e, sh.iso, edge_filter.as_ref(), cell_g);
                     if REFINE || count_only {
                         loc[e] = gp - cell_f;
                     }
@@ -458,7 +407,7 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
                         ids[e] = e as u32;
                     } else {
                         let next = out.verts.len() as u32;
-                        let id = if !weld_all && moved != base && moved != base + 1.0 {
+                        let id = if !weld_all && inside_edge {
                             // Strictly inside the edge: first seen here.
                             out.verts.push(gp);
                             next
@@ -590,6 +539,72 @@ fn slab_pass<T: Scalar, F: ReconstructionFilter, const REFINE: bool>(
     out.reported = reported;
     out.total_time = t0.elapsed();
     out
+}
+
+/// The point (global index coordinates) where the surface crosses grid
+/// edge `e` of the cell whose lowest corner is `cell_g`, from the cell's
+/// corner samples `c`: where the samples' linear interpolation meets
+/// `iso`, as vtkMarchingCubes places it, or, given the filter's cell
+/// (`filter`: a filter not linear on grid edges), where the filter's own
+/// isosurface crosses the edge. With it, whether the point lies strictly
+/// inside the edge (it can round onto a sample).
+#[inline(always)]
+fn edge_point<F: ReconstructionFilter>(
+    c: &[f64; 8],
+    e: usize,
+    iso: f64,
+    filter: Option<&F::Cell>,
+    cell_g: [i64; 3],
+) -> (DVec3, bool) {
+    let [a, b] = EDGES[e];
+    let ca = CORNERS[a as usize];
+    let ax = EDGE_AXIS[e] as usize;
+    let (sa, sb) = (c[a as usize], c[b as usize]);
+    // vtkMarchingCubes: t from the lower corner.
+    let mut t = (iso - sa) / (sb - sa);
+    if !t.is_finite() || !(sb - sa).is_finite() {
+        // A difference overflowed (samples beyond half of f64::MAX with
+        // opposite signs; with only the denominator infinite, t came out
+        // 0, a point on the corner): the same ratio of halves.
+        t = ((0.5 * iso - 0.5 * sa) / (0.5 * sb - 0.5 * sa)).clamp(0.0, 1.0);
+    }
+    if let Some(fc) = filter {
+        let corner = DVec3::new(ca[0] as f64, ca[1] as f64, ca[2] as f64);
+        if let Some(s) = edge_crossing::<F>(fc, iso, corner, ax) {
+            t = s;
+        }
+    }
+    let (x, y, z) = (
+        (cell_g[0] + ca[0] as i64) as f64,
+        (cell_g[1] + ca[1] as i64) as f64,
+        (cell_g[2] + ca[2] as i64) as f64,
+    );
+    // Built in registers: a store of one lane then a load of the vector
+    // stalls store forwarding.
+    let (base, gp) = match ax {
+        0 => (x, DVec3::new(x + t, y, z)),
+        1 => (y, DVec3::new(x, y + t, z)),
+        _ => (z, DVec3::new(x, y, z + t)),
+    };
+    let mut moved = base + t;
+    let mut gp = gp;
+    if filter.is_some() && (moved == base || moved == base + 1.0) {
+        // A cubic's crossing within rounding of a corner (samples a
+        // rounding away from the isovalue) would weld with the crossings
+        // of the corner's other edges: a polygon visiting two of them
+        // apart then touches itself there, and the patch refined from it
+        // is not a manifold (a crack; a debug assertion). The point stays
+        // on its own edge, one float off the corner (the offset is
+        // exact).
+        moved = next_float(if moved == base { base } else { base + 1.0 }, moved == base);
+        let t = moved - base;
+        gp = match ax {
+            0 => DVec3::new(x + t, y, z),
+            1 => DVec3::new(x, y + t, z),
+            _ => DVec3::new(x, y, z + t),
+        };
+    }
+    (gp, moved != base && moved != base + 1.0)
 }
 
 /// The first cell at or after `from` of a row of case indices whose case
