@@ -150,7 +150,15 @@ pub fn atoms(n: u64) -> SampleVolume {
             .iter()
             .map(|a| {
                 let d2 = (x - a[0]).powi(2) + (y - a[1]).powi(2) + (z - a[2]).powi(2);
-                (-d2 / width2).exp()
+                let e = -d2 / width2;
+                // exp is exactly 0 below about -745.13; libm reaches that
+                // through its slow underflow path (errno), which was most
+                // of the time of a large volume's generation.
+                if e < -746.0 {
+                    0.0
+                } else {
+                    e.exp()
+                }
             })
             .sum();
         (100.0 * v) as f32
