@@ -194,9 +194,7 @@ pub(crate) fn refine_cell<T: Scalar, F: ReconstructionFilter>(
         out.counters.samples += samples;
         out.counters.per_level[0] += n;
         out.counters.nodes_per_level[0] += n;
-        if let Some(p) = sh.poll {
-            p.poll_timed();
-        }
+        sh.poll_timed();
         return stop_if(refined_cell_done(sh, out, count_only, end, reported, cap));
     }
     // Polygons whose table diagonals refinement cannot follow are re-cut
@@ -326,11 +324,7 @@ pub(crate) fn refine_cell<T: Scalar, F: ReconstructionFilter>(
         // Polled as refinement is: progress and the stop request (the
         // nested extraction and the outlines of a large patch take
         // seconds).
-        let tick = || {
-            if let Some(p) = sh.poll {
-                p.poll_timed();
-            }
-        };
+        let tick = || sh.poll_timed();
         let poll = subcells::Poll::new(
             sh.cancel,
             sh.poll.is_some().then_some(&tick as &(dyn Fn() + Sync)),
@@ -345,9 +339,7 @@ pub(crate) fn refine_cell<T: Scalar, F: ReconstructionFilter>(
             return ControlFlow::Break(());
         }
     }
-    if let Some(p) = sh.poll {
-        p.poll_timed();
-    }
+    sh.poll_timed();
     stop_if(refined_cell_done(sh, out, count_only, end, reported, cap))
 }
 
@@ -496,11 +488,7 @@ fn run_attempt<T: Scalar, F: ReconstructionFilter>(
     // Distinct ids for new points when counting (the edge cache is keyed
     // by ids; 0..16 are the cell's own points).
     let mut next_id = 16u32;
-    let tick = || {
-        if let Some(p) = sh.poll {
-            p.poll_timed();
-        }
-    };
+    let tick = || sh.poll_timed();
     let mut refiner = Refiner::<F> {
         cell: job.fc,
         iso: sh.iso,

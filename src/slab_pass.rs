@@ -58,6 +58,17 @@ pub(crate) struct Shared<'a, T: Scalar, F: ReconstructionFilter> {
     pub(crate) poll: Option<&'a OnCaller<'a>>,
 }
 
+impl<T: Scalar, F: ReconstructionFilter> Shared<'_, T, F> {
+    /// Reports progress through [`Shared::poll`] unless it was reported
+    /// lately ([`OnCaller::poll_timed`]): between refined cells and within
+    /// their refinement.
+    pub(crate) fn poll_timed(&self) {
+        if let Some(p) = self.poll {
+            p.poll_timed();
+        }
+    }
+}
+
 /// What one slab of cell layers produced: points (index coordinates,
 /// welded within the slab), triangles on them, their levels, counters.
 #[derive(Default)]
