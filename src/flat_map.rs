@@ -76,17 +76,6 @@ impl<V: Copy + Default> FlatMap<V> {
         found.then(|| self.slots[i].2)
     }
 
-    /// The value stored under `key`, to modify in place.
-    #[inline]
-    pub fn get_mut(&mut self, key: u64) -> Option<&mut V> {
-        let (i, found) = self.probe(key);
-        if found {
-            Some(&mut self.slots[i].2)
-        } else {
-            None
-        }
-    }
-
     /// Stores `value` under `key` unless the key is present; returns the
     /// value already stored, if any (which is then kept).
     #[inline]
@@ -112,6 +101,48 @@ impl<V: Copy + Default> FlatMap<V> {
             self.try_grow()?;
         }
         Ok(self.insert_new(key, value))
+    }
+
+    /// Makes room for `extra` more entries without growing: until then
+    /// the slots [`FlatMap::find`] returns stay where they are.
+    /// `Err(bytes)`, the map unchanged, when the larger table cannot be
+    /// allocated.
+    #[inline]
+    pub fn try_reserve(&mut self, extra: usize) -> Result<(), usize> {
+        while 2 * (self.len + extra) > self.slots.len() {
+            self.try_grow()?;
+        }
+        Ok(())
+    }
+
+    /// The slot of `key`, and whether it holds it (else the empty slot
+    /// where [`FlatMap::fill`] puts it). One probe where a look-up, an
+    /// insertion and a second look-up took three (refinement's edges).
+    /// Valid until the table grows (see [`FlatMap::try_reserve`]).
+    #[inline]
+    pub fn find(&self, key: u64) -> (usize, bool) {
+        self.probe(key)
+    }
+
+    /// The value in slot `i`, which [`FlatMap::find`] found holding a key.
+    #[inline]
+    pub fn value(&self, i: usize) -> V {
+        self.slots[i].2
+    }
+
+    /// The value in slot `i` (found or filled), to change in place.
+    #[inline]
+    pub fn value_mut(&mut self, i: usize) -> &mut V {
+        &mut self.slots[i].2
+    }
+
+    /// Puts `key` and `value` in the empty slot `i` that [`FlatMap::find`]
+    /// returned for `key`, with room reserved and nothing inserted since.
+    #[inline]
+    pub fn fill(&mut self, i: usize, key: u64, value: V) {
+        debug_assert!(self.slots[i].0 != self.generation && 2 * (self.len + 1) <= self.slots.len());
+        self.slots[i] = (self.generation, key, value);
+        self.len += 1;
     }
 
     /// Doubles the table, keeping the entries; `Err(bytes)` when the new
@@ -191,15 +222,27 @@ mod tests {
                 let key = (x >> 40) % 512;
                 let value = (x >> 20) as u32;
                 let expected = reference.get(&key).copied();
-                assert_eq!(ours.insert_new(key, value), expected);
+                if x & (1 << 60) == 0 {
+                    assert_eq!(ours.insert_new(key, value), expected);
+                } else {
+                    // The slot interface: room first, one probe, then
+                    // the value found or the key filled in.
+                    ours.try_reserve(1).unwrap();
+                    let (i, found) = ours.find(key);
+                    assert_eq!(found.then(|| ours.value(i)), expected);
+                    if !found {
+                        ours.fill(i, key, value);
+                    }
+                }
                 reference.entry(key).or_insert(value);
             }
             for key in 0..512u64 {
                 assert_eq!(ours.get(key), reference.get(&key).copied());
                 // Changes in place land in the map.
-                assert_eq!(ours.get_mut(key).is_some(), reference.contains_key(&key));
-                if let (Some(v), Some(r)) = (ours.get_mut(key), reference.get_mut(&key)) {
-                    *v ^= 0x5a5a;
+                let (i, found) = ours.find(key);
+                assert_eq!(found, reference.contains_key(&key));
+                if let (true, Some(r)) = (found, reference.get_mut(&key)) {
+                    *ours.value_mut(i) ^= 0x5a5a;
                     *r ^= 0x5a5a;
                 }
                 assert_eq!(ours.get(key), reference.get(&key).copied());

@@ -928,7 +928,14 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         // stalls on every copy.)
         let mut split = 0u8;
         let mut mid_p = [DVec3::ZERO; 3];
-        let mut keys = [0u64; 3];
+        // The cache slot of each tested edge: room for the three is made
+        // first, so the slots stay put until the split points take their
+        // ids below (one probe an edge, not three).
+        let mut slots = [0usize; 3];
+        if let Err(bytes) = self.cache.try_reserve(3) {
+            self.alloc_failed = bytes;
+            return false;
+        }
         // An edge's midpoint, where needed: only an edge in a cell face
         // looks at it before its sample is taken (rule A2 after).
         let midpoint = |e: usize| (t.p[e] + t.p[(e + 1) % 3]) * 0.5;
@@ -936,10 +943,12 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
             let fixed = t.fixed[e];
             let mid = if fixed == 0 { DVec3::ZERO } else { midpoint(e) };
             if t.near & (1 << e) == 0 && self.refinable.edge(fixed, mid) {
-                keys[e] = edge_key(t.v[e], t.v[(e + 1) % 3]);
-                let d = match self.cache.get(keys[e]) {
-                    Some(d) => d,
-                    None => {
+                let key = edge_key(t.v[e], t.v[(e + 1) % 3]);
+                let (slot, found) = self.cache.find(key);
+                slots[e] = slot;
+                let d = match found {
+                    true => self.cache.value(slot),
+                    false => {
                         let s = sample_edge::<F>(
                             self.cell,
                             self.refinable.iso(self.iso, fixed, mid),
@@ -956,10 +965,10 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
                             split: r.is_some(),
                             ..EdgeDecision::default()
                         };
-                        if let Err(bytes) = self.cache.try_insert_new(keys[e], d) {
-                            self.alloc_failed = bytes;
-                            return false;
-                        }
+                        // Before the next edge's probe: a triangle whose
+                        // corners welded into one point has two edges on
+                        // the same key.
+                        self.cache.fill(slot, key, d);
                         d
                     }
                 };
@@ -1029,16 +1038,15 @@ impl<F: ReconstructionFilter> Refiner<'_, F> {
         ];
         for e in 0..3 {
             if splits(e) {
-                // A split edge was tested, so it has an entry.
-                if let Some(entry) = self.cache.get_mut(keys[e]) {
-                    // The split point of an edge shared by two triangles
-                    // of the cell is made (and counted) once.
-                    if entry.id == u32::MAX {
-                        entry.id = vertex(mid_p[e]);
-                        self.counters.splits += 1;
-                    }
-                    ids[M0 + e] = entry.id;
+                // A split edge was tested, so its slot holds it. The
+                // split point of an edge shared by two triangles of the
+                // cell is made (and counted) once.
+                let entry = self.cache.value_mut(slots[e]);
+                if entry.id == u32::MAX {
+                    entry.id = vertex(mid_p[e]);
+                    self.counters.splits += 1;
                 }
+                ids[M0 + e] = entry.id;
             }
         }
         if let Some(c) = centre {
