@@ -1403,6 +1403,7 @@ int vtkPreciseMarchingCubes::Contour(
     }
   }
   double worldMax = 0.0;
+  double largest[3] = { 0.0, 0.0, 0.0 }; // per world axis
   for (int corner = 0; corner < 8; ++corner)
   {
     const double ijk[3] = { static_cast<double>(boxExtent[corner & 1 ? 1 : 0]),
@@ -1431,6 +1432,7 @@ int vtkPreciseMarchingCubes::Contour(
       if (finite)
       {
         worldMax = std::max(worldMax, std::fabs(x));
+        largest[r] = std::max(largest[r], std::fabs(x));
       }
     }
   }
@@ -1466,7 +1468,44 @@ int vtkPreciseMarchingCubes::Contour(
   const double floatStep = worldMax * std::ldexp(1.0, -23); // float's spacing near worldMax
   const bool floatBlurs = smallestCell < static_cast<double>(std::numeric_limits<float>::min()) ||
     smallestCell < floatStep * std::ldexp(1.0, std::max(0, this->MaxLevel));
-  if (floatBlurs && !floatOverflows &&
+  // Double points can be too coarse as well. A world coordinate x is held
+  // to half an ulp, |x| 2^-53, which moves a point along index axis c by
+  // sum over r of |D^-1[c][r]| |x_r| 2^-53 / |spacing c| cells: with a
+  // spacing below 2^-40 times that reach (an origin of 1e17 with unit
+  // spacing) every point is rounded by more than 1e-4 of a cell, and from
+  // 2^-52 down a cell's points fall onto each other. No precision gives
+  // better points there (the command-line tool refuses such a volume as it
+  // reads it, with the same bound): said, not silent.
+  int blurredAxis = -1;
+  double blurredReach = 0.0;
+  for (int c = 0; c < 3 && blurredAxis < 0; ++c)
+  {
+    double reach = axisAligned ? largest[c] : 0.0;
+    if (!axisAligned)
+    {
+      // normalMatrix is (D sign(S))^-T: its entry [r][c] is D^-1[c][r]
+      // up to sign.
+      for (int r = 0; r < 3; ++r)
+      {
+        reach += std::fabs(normalMatrix[r][c]) * largest[r];
+      }
+    }
+    if (std::fabs(spacing[c]) < std::ldexp(reach, -40))
+    {
+      blurredAxis = c;
+      blurredReach = reach;
+    }
+  }
+  if (blurredAxis >= 0)
+  {
+    vtkWarningMacro(<< "The input's world coordinates (up to " << blurredReach
+                    << " along index axis " << blurredAxis << ") are too large for its spacing ("
+                    << std::fabs(spacing[blurredAxis])
+                    << "): even double-precision points are rounded by more than 1e-4 of a cell "
+                       "there, and distinct points may coincide; move the image's origin nearer "
+                       "to its extent");
+  }
+  else if (floatBlurs && !floatOverflows &&
     this->OutputPointsPrecision == vtkAlgorithm::SINGLE_PRECISION)
   {
     vtkWarningMacro(<< "Single-precision points cannot tell this input's cells apart (a cell "

@@ -355,7 +355,10 @@ public:
    * least normal number, about 1.2e-38, or spanning fewer float steps at
    * the largest world coordinate than 2^MaxLevel, e.g. an origin of 1e7
    * with unit spacing), DEFAULT_PRECISION gives double points too and
-   * SINGLE_PRECISION warns. The largest world coordinate is that of the
+   * SINGLE_PRECISION warns. Where even double points round by more than
+   * 1e-4 of a cell (a spacing below 2^-40 times the world coordinates
+   * along its axis, e.g. an origin of 1e17 with unit spacing), the filter
+   * warns whatever the precision. The largest world coordinate is that of the
    * whole volume (the pipeline's whole extent), so that every piece of a
    * distributed run makes the serial run's choice. Default
    * DEFAULT_PRECISION; a value outside SINGLE_PRECISION..DEFAULT_PRECISION

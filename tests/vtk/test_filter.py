@@ -601,6 +601,34 @@ def test_cells_float_cannot_tell_apart_give_double_points_or_a_warning():
     assert f.GetOutput().GetPoints().GetDataType() == 10  # VTK_FLOAT
 
 
+def test_coordinates_too_large_for_double_points_are_warned_about():
+    # An origin of 1e17 with unit spacing: a double's step there is 16
+    # cells, so the surface's points fell onto a few x values, without a
+    # word (the command-line tool refuses such a volume as it reads it).
+    # Now a warning, whatever the points' precision and the frame.
+    for direction in ((1, 0, 0, 0, 1, 0, 0, 0, 1), (0, 1, 0, 1, 0, 0, 0, 0, 1)):
+        for precision in (0, 1, 2):
+            image = wavelet(8)
+            image.SetOrigin(1e17, 0.0, 0.0)
+            image.SetDirectionMatrix(*direction)
+            f, errors = observed_run(image, precision)
+            assert not errors.errors, errors.errors
+            assert f.GetOutput().GetNumberOfPolys() > 100
+            assert errors.warnings, (direction, precision)
+            assert "too large for its spacing" in errors.warnings[-1], errors.warnings
+    # Large coordinates with a spacing to match, and large coordinates on
+    # another axis than the fine one, are not warned about.
+    for origin, spacing in (((1e17, 0.0, 0.0), (1e6, 1e6, 1e6)),
+                            ((1e12, 0.0, 0.0), (1.0, 1.0, 1.0)),
+                            ((1e17, 0.0, 0.0), (1e6, 1.0, 1.0))):
+        image = wavelet(8)
+        image.SetOrigin(*origin)
+        image.SetSpacing(*spacing)
+        f, errors = observed_run(image, 1)
+        assert not errors.errors and not errors.warnings, (origin, spacing, errors.warnings)
+        assert f.GetOutput().GetNumberOfPolys() > 100
+
+
 def test_thread_count_is_clamped_to_the_library_limit():
     f = vtkPreciseMarchingCubes()
     warned = ErrorObserver(f)
