@@ -583,15 +583,31 @@ int main(int argc, char* argv[])
       if (filter->GetOutput()->GetNumberOfPolys() == 0)
       {
         // Every isovalue is inside the scalar range (checked before the
-        // work), yet no cell the filter contours is crossed: the cells
-        // with NaN or infinite samples are skipped (a low sample whose
-        // neighbours are all NaN). The empty file written is most likely
-        // not what was wanted: said even with -q, the status left 0.
-        std::cerr << "precisemc: warning: " << d.Name << ": the surface is empty: no cell with "
-                  << "only finite samples is crossed at isovalue"
-                  << (d.Values.size() > 1 ? "s " : " ") << ValuesText(d.Values)
-                  << (output.empty() ? "" : " (the file written holds no triangles)")
-                  << std::endl;
+        // work), yet the surface is empty: the cells with NaN or infinite
+        // samples are skipped (a low sample whose neighbours are all NaN),
+        // or, with no cell skipped, the cells crossed meet the isovalue
+        // only at samples equal to it, where the surface shrinks to a
+        // point or to flat pieces that cancel (a peak or a ridge of
+        // samples at the isovalue, as at the data's maximum: this said
+        // "no cell with only finite samples is crossed" of finite data).
+        // The empty file written is most likely not what was wanted: said
+        // even with -q, the status left 0.
+        const bool plural = d.Values.size() > 1;
+        std::cerr << "precisemc: warning: " << d.Name << ": the surface is empty: ";
+        if (filter->GetNumberOfSkippedCells() > 0)
+        {
+          std::cerr << "no cell with only finite samples is crossed at isovalue"
+                    << (plural ? "s " : " ") << ValuesText(d.Values);
+        }
+        else
+        {
+          std::cerr << "the cells crossed at isovalue" << (plural ? "s " : " ")
+                    << ValuesText(d.Values)
+                    << " meet it only at samples equal to it (a peak or a ridge at the "
+                    << (plural ? "isovalues" : "isovalue")
+                    << ", as at the data's maximum), which give no triangles";
+        }
+        std::cerr << (output.empty() ? "" : " (the file written holds no triangles)") << std::endl;
       }
 
       pmcapp::Panel panel;

@@ -3369,6 +3369,29 @@ def an_empty_surface_inside_the_range_is_warned_about():
         expect(read_surface(out).GetNumberOfPolys() == 0, "triangles written")
 
 
+
+@check
+def an_empty_surface_of_finite_data_is_not_blamed_on_non_finite_samples():
+    """An isovalue met only at samples equal to it (a single peak at the
+    data's maximum, a ridge plane between lower samples) gives no
+    triangles: the warning said "no cell with only finite samples is
+    crossed" of data without a NaN, where the cells are crossed and no
+    sample is non-finite. It now names the cause."""
+    d = fresh_dir("empty-surface-finite")
+    peak = np.zeros((7, 6, 6), dtype=np.float32)
+    peak[3, 3, 3] = 5.0
+    ridge = np.zeros((7, 6, 6), dtype=np.float32)
+    ridge[3, :, :] = 5.0
+    for name, values in (("peak.vti", peak), ("ridge.vti", ridge)):
+        vti = write_vti(density_image(values, (6, 6, 7), (1, 1, 1), (0, 0, 0)),
+                        os.path.join(d, name))
+        out = os.path.join(d, name + ".stl")
+        r = ok(vti, "-q", "-v", "5", "-o", out, warns=f"{name}: the surface is empty")
+        expect("finite" not in r.stderr, r.stderr)
+        expect("meet it only at samples equal to it" in r.stderr, r.stderr)
+        expect("holds no triangles" in r.stderr, r.stderr)
+        expect(read_surface(out).GetNumberOfPolys() == 0, "triangles written")
+
 def main():
     if not os.access(TOOL, os.X_OK):
         print(f"cli: the tool {TOOL} is not built")
