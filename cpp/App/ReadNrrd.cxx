@@ -46,6 +46,33 @@ int NrrdTypeBytes(const std::string& type)
   return 0;
 }
 
+// Bytes the samples of a header with these sizes and values of
+// `valueBytes` bytes take; 0 when not known (a type not known, a size not
+// positive, or a product beyond 2^62).
+unsigned long long NrrdSampleBytes(const std::vector<long long>& sizes, int valueBytes)
+{
+  unsigned long long need = valueBytes > 0 ? static_cast<unsigned long long>(valueBytes) : 0;
+  for (long long n : sizes)
+  {
+    need = n > 0 && need <= (1ULL << 62) / static_cast<unsigned long long>(n)
+      ? need * static_cast<unsigned long long>(n)
+      : 0;
+  }
+  return need;
+}
+
+// Raw samples cut short: VTK's reader failed with its own words ("File
+// operation failed. row = 9, Tried to Read = 48, Read = 44, ...").
+void RefuseShortRawData(const std::string& path, const std::string& where,
+  unsigned long long have, unsigned long long need)
+{
+  if (need > 0 && have < need)
+  {
+    Unreadable(path, where + " holds " + std::to_string(have) + " bytes, fewer than the " +
+        std::to_string(need) + " its samples take: the data is cut short");
+  }
+}
+
 // The data files a detached NRRD header names, as VTK 9.1's reader takes
 // them ("data file: NAME", "data file: PATTERN MIN MAX STEP [SUBDIM]", or
 // "data file: LIST" and a name a line): each must be a regular file, and a
@@ -95,12 +122,10 @@ void CheckNrrdDataFiles(const std::string& path, const std::string& dataFile,
     // header before them (raw), or the compressed size beyond the samples'
     // for one (gzip: incompressible data read as garbage, exit status 0),
     // where NRRD puts the data at its start.
-    unsigned long long need = valueBytes > 0 ? static_cast<unsigned long long>(valueBytes) : 0;
-    for (long long n : sizes)
+    const unsigned long long need = NrrdSampleBytes(sizes, valueBytes);
+    if (encoding == "raw")
     {
-      need = n > 0 && need <= (1ULL << 62) / static_cast<unsigned long long>(n)
-        ? need * static_cast<unsigned long long>(n)
-        : 0;
+      RefuseShortRawData(path, "its data file '" + dataFile + "'", have, need);
     }
     if (need > 0 && have > need)
     {
@@ -420,6 +445,21 @@ NrrdHeader CheckNrrdHeader(const std::string& path)
     Unreadable(path, misread + "a spatial axis (space direction " + firstDirection + ")" + instead);
   }
   CheckNrrdDataFiles(path, dataFile, listed, sizes, encoding, valueBytes);
+  if (!detached && encoding == "raw")
+  {
+    // The samples follow the blank line that ends the header (`read`
+    // bytes in).
+    in.clear();
+    in.seekg(0, std::ios::end);
+    const std::streamoff size = in.tellg();
+    if (size >= 0)
+    {
+      const unsigned long long total = static_cast<unsigned long long>(size);
+      const unsigned long long after = total > read ? total - read : 0;
+      RefuseShortRawData(
+        path, "its data after the header", after, NrrdSampleBytes(sizes, valueBytes));
+    }
+  }
   header.sizes = sizes;
   return header;
 }

@@ -1923,7 +1923,8 @@ def header_frames_are_applied():
 def nrrd_headers_vtk_misreads_are_refused():
     """Data VTK's NRRD reader would read as garbage (ASCII after an attached
     header) or crash on (a detached header declaring more than the machine
-    holds) is refused with a reason."""
+    holds) is refused with a reason: a data file too small for the samples
+    declared as cut short, one as large (sparse) as beyond the memory."""
     d = fresh_dir("nrrd-refused")
     ascii_path = os.path.join(d, "ascii.nrrd")
     with open(ascii_path, "w") as f:
@@ -1938,6 +1939,14 @@ def nrrd_headers_vtk_misreads_are_refused():
     with open(huge, "w") as f:
         f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: 100000 100000 100000\n"
                 "encoding: raw\nendian: little\ndata file: small.raw\n\n")
+    expect_error([huge, "-o", out], "holds 64 bytes, fewer than the 4000000000000000",
+                 outputs=[out])
+    # 4 TB of floats, a sparse file that takes no room.
+    with open(os.path.join(d, "huge.raw"), "wb") as f:
+        f.truncate(4 * 10 ** 12)
+    with open(huge, "w") as f:
+        f.write("NRRD0004\ntype: float\ndimension: 3\nsizes: 10000 10000 10000\n"
+                "encoding: raw\nendian: little\ndata file: huge.raw\n\n")
     expect_error([huge, "-o", out], "more than this machine's memory", outputs=[out])
 
 
@@ -2118,6 +2127,39 @@ def expect_refused_in_time(path, fragment, out):
         raise Failure(f"{os.path.basename(path)}: {e}")
     took = time.monotonic() - start
     expect(took < 60, f"{os.path.basename(path)}: took {took:.0f} s")
+
+
+@check
+def nrrd_raw_data_cut_short_is_refused_with_its_byte_counts():
+    """Raw NRRD samples cut short, after an attached header (no samples at
+    all, or 100 bytes missing) or in a detached data file: refused with the
+    bytes there and the bytes the samples take, where VTK's reader failed
+    in its own words ("File operation failed. row = 9, Tried to Read = 48,
+    Read = 44, ..."); the whole files still read."""
+    d = fresh_dir("nrrd-cut")
+    out = os.path.join(d, "o.vtp")
+    data = np.arange(12 ** 3, dtype="<f4").tobytes()
+    head = "NRRD0004\ntype: float\ndimension: 3\nsizes: 12 12 12\nendian: little\nencoding: raw\n"
+    for name, content in (("cut.raw", data[:-100]), ("whole.raw", data)):
+        with open(os.path.join(d, name), "wb") as f:
+            f.write(content)
+    for name, content, fragment in (
+            ("empty.nrrd", head + "\n", "data after the header holds 0 bytes, fewer than the 6912"),
+            ("cut.nrrd", (head + "\n").encode() + data[:-100],
+             "data after the header holds 6812 bytes, fewer than the 6912"),
+            ("cut.nhdr", head + "data file: cut.raw\n\n",
+             "data file 'cut.raw' holds 6812 bytes, fewer than the 6912")):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(content.encode() if isinstance(content, str) else content)
+        expect_refused_in_time(path, fragment, out)
+    for name, content in (("whole.nrrd", (head + "\n").encode() + data),
+                          ("whole.nhdr", (head + "data file: whole.raw\n\n").encode())):
+        path = os.path.join(d, name)
+        with open(path, "wb") as f:
+            f.write(content)
+        ok(path, "-q", "-v", "100.5", "-o", os.path.join(d, "good.vtp"))
+        expect(read_surface(os.path.join(d, "good.vtp")).GetNumberOfPolys() > 0, f"{name}: empty")
 
 
 @check
