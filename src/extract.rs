@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use crate::assemble::assemble;
 use crate::cubic::{prefilter, BSplineKernel, CatmullRomKernel, Tricubic};
 use crate::executor::Executor;
-use crate::filter::{ReconstructionFilter, Trilinear};
+use crate::filter::{ReconstructionFilter, Trilinear, TrilinearFast};
 use crate::helpers::with_helpers;
 use crate::layers::ScratchPool;
 use crate::mesh::{Mesh, Stats};
@@ -355,7 +355,7 @@ fn run<T: Scalar>(
         let r = &mut reporter;
         match options.reconstruction {
             Reconstruction::Trilinear => {
-                let f = Trilinear::new(grid);
+                let f = TrilinearFast(Trilinear::new(grid));
                 run_with(exec, nslabs, grid, &f, volume, iso, options, r, how)
             }
             Reconstruction::CatmullRom => {
