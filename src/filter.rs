@@ -108,7 +108,7 @@ pub fn trilinear_value_gradient(c: &[f64; 8], p: DVec3) -> (f64, DVec3) {
 /// The changes along the cell's four x edges (`c1 - c0`, `c2 - c3`,
 /// `c5 - c4`, `c6 - c7`), which the gradient's x component interpolates.
 #[inline(always)]
-fn x_steps(c: &[f64; 8]) -> [f64; 4] {
+pub(crate) fn x_steps(c: &[f64; 8]) -> [f64; 4] {
     [c[1] - c[0], c[2] - c[3], c[5] - c[4], c[6] - c[7]]
 }
 
@@ -212,7 +212,7 @@ pub fn trilinear_line_cubic(c: &[f64; 8], p: DVec3, d: DVec3) -> (f64, f64) {
 /// y = 0 and 1, yz at x = 0 and 1) and its body twist, for
 /// [`line_cubic_with`].
 #[inline(always)]
-fn twists(c: &[f64; 8]) -> [f64; 7] {
+pub(crate) fn twists(c: &[f64; 8]) -> [f64; 7] {
     [
         c[0] - c[1] + c[2] - c[3],
         c[4] - c[5] + c[6] - c[7],

@@ -57,22 +57,16 @@ struct Rough {
 
 impl Rough {
     fn of_cell(c: &[f64; 8]) -> Self {
-        let faces = [
-            c[0] - c[1] + c[2] - c[3],
-            c[4] - c[5] + c[6] - c[7],
-            c[0] - c[1] - c[4] + c[5],
-            c[3] - c[2] - c[7] + c[6],
-            c[0] - c[3] - c[4] + c[7],
-            c[1] - c[2] - c[5] + c[6],
-        ];
+        // The six face twists come first in the filter's twists.
+        let twists = crate::filter::twists(c);
         let edges = [
-            [c[1] - c[0], c[2] - c[3], c[5] - c[4], c[6] - c[7]],
+            crate::filter::x_steps(c),
             [c[3] - c[0], c[2] - c[1], c[7] - c[4], c[6] - c[5]],
             [c[4] - c[0], c[5] - c[1], c[6] - c[2], c[7] - c[3]],
         ];
         let abs_max = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         Rough {
-            twist: abs_max(&faces),
+            twist: abs_max(&twists[..6]),
             steepest: edges.iter().fold(0.0, |m, d| f64::max(m, abs_max(d))),
             edges,
         }
