@@ -240,8 +240,9 @@ fn line_cubic_with(tw: &[f64; 7], p: DVec3, d: DVec3) -> (f64, f64) {
 
 /// A trilinear cell as refinement evaluates it, again and again: its
 /// corner samples with the differences of them that every gradient and
-/// every cubic along a line would otherwise compute anew (a tenth of a
-/// refined extraction's instructions). The same bits as the functions on
+/// every cubic along a line would otherwise compute anew (about 7 % of a
+/// refined extraction's instructions: atoms 64^3, ε 0.001, level 5).
+/// The same bits as the functions on
 /// corner arrays ([`trilinear_value_gradient`], [`trilinear_line_cubic`]).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TrilinearCell {
