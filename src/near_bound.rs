@@ -50,6 +50,8 @@ struct Rough {
     /// The largest |edge difference|: the gradient is never longer than
     /// sqrt 3 times it.
     steepest: f64,
+    /// The body twist (the third mixed derivative).
+    hxyz: f64,
     /// The edge differences by axis (each axis's four edges in the order
     /// of `CellBounds::of_cell`'s table).
     edges: [[f64; 4]; 3],
@@ -57,7 +59,7 @@ struct Rough {
 
 impl Rough {
     fn of_cell(c: &[f64; 8]) -> Self {
-        // The six face twists come first in the filter's twists.
+        // The six face twists, then the body twist.
         let twists = crate::filter::twists(c);
         let edges = [
             crate::filter::x_steps(c),
@@ -67,6 +69,7 @@ impl Rough {
         let abs_max = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         Rough {
             twist: abs_max(&twists[..6]),
+            hxyz: twists[6],
             steepest: edges.iter().fold(0.0, |m, d| f64::max(m, abs_max(d))),
             edges,
         }
@@ -81,9 +84,9 @@ impl CellBounds {
         let &Rough {
             twist,
             steepest,
+            hxyz,
             ref edges,
         } = rough;
-        let hxyz = (c[1] - c[0]) + (c[3] - c[2]) + (c[4] - c[5]) + (c[6] - c[7]);
         // Two lower bounds of the gradient's length, the better one kept:
         // per axis, |dF/dx_axis| is bilinear in the two other coordinates,
         // so its extremes are the axis's four edge differences; and the
