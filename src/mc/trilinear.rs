@@ -38,10 +38,10 @@
 //! Loops are oriented so that fans wind like `vtkMarchingCubes` (normals
 //! towards lower values); the tube is stitched with the same orientation.
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
 
 use crate::tables::cube::{
-    face_is_ambiguous, on_one_face, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES,
+    on_one_face, AMBIGUOUS_FACES, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES,
 };
 
 /// Disjoint sets of `N` small ids (`N <= 256`): a cell's corners here, a
@@ -159,18 +159,25 @@ fn product_range<const N: usize>(v: [f64; N]) -> [f64; N] {
 /// ambiguous face joins its inside corners, `Some(false)` when it joins
 /// its outside corners, `None` for unambiguous faces.
 pub fn face_decisions(f: &[f64; 8]) -> [Option<bool>; 6] {
-    let case = super::case_index(f);
+    decisions_of_case(super::case_index(f), f)
+}
+
+/// [`face_decisions`] of a cell whose case index the caller has.
+#[inline]
+fn decisions_of_case(case: u8, f: &[f64; 8]) -> [Option<bool>; 6] {
     let mut out = [None; 6];
-    for (k, (_, _, c)) in FACES.iter().enumerate() {
-        if face_is_ambiguous(case, k) {
-            let g = [
-                f[c[0] as usize],
-                f[c[1] as usize],
-                f[c[2] as usize],
-                f[c[3] as usize],
-            ];
-            out[k] = Some(joins_inside(g));
-        }
+    let mut faces = AMBIGUOUS_FACES[case as usize];
+    while faces != 0 {
+        let k = faces.trailing_zeros() as usize;
+        faces &= faces - 1;
+        let c = FACES[k].2;
+        let g = [
+            f[c[0] as usize],
+            f[c[1] as usize],
+            f[c[2] as usize],
+            f[c[3] as usize],
+        ];
+        out[k] = Some(joins_inside(g));
     }
     out
 }
@@ -182,13 +189,13 @@ pub struct Loops {
     edges: [u8; 12],
     /// Loop `k` is `edges[ends[k]..ends[k + 1]]`.
     ends: [u8; 5],
-    count: usize,
+    count: u8,
 }
 
 impl Loops {
     /// How many loops there are.
     pub fn len(&self) -> usize {
-        self.count
+        self.count as usize
     }
 
     /// Whether there is none.
@@ -205,48 +212,7 @@ impl Loops {
     pub fn get(&self, k: usize) -> &[u8] {
         &self.edges[self.ends[k] as usize..self.ends[k + 1] as usize]
     }
-
-    /// Four bits an edge (12 slots), then four bits a loop's length (0:
-    /// no loop), in one word; 0 for no loop at all.
-    fn pack(&self) -> u64 {
-        let mut w = 0u64;
-        for (k, &e) in self.edges.iter().enumerate() {
-            w |= (e as u64) << (4 * k);
-        }
-        for k in 0..self.count {
-            w |= ((self.ends[k + 1] - self.ends[k]) as u64) << (48 + 4 * k);
-        }
-        w
-    }
-
-    fn unpack(w: u64) -> Self {
-        let mut out = Loops {
-            edges: [0; 12],
-            ends: [0; 5],
-            count: 0,
-        };
-        for k in 0..12 {
-            out.edges[k] = (w >> (4 * k)) as u8 & 15;
-        }
-        for k in 0..4 {
-            let n = (w >> (48 + 4 * k)) as u8 & 15;
-            if n == 0 {
-                break;
-            }
-            out.ends[k + 1] = out.ends[k] + n;
-            out.count += 1;
-        }
-        out
-    }
 }
-
-/// The loops of each sign pattern and its faces' decisions found so far,
-/// packed (0: not yet). With the decisions of [`face_decisions`] they
-/// depend on nothing else (a face is ambiguous or not by the sign pattern,
-/// so one bit a face, "joins inside", tells them apart), and finding them is
-/// a good part of an ambiguous cell's cost; filled as cells meet them
-/// (racing writers store the same word), 128 KiB in all.
-static LOOPS_SEEN: [AtomicU64; 1 << 14] = [const { AtomicU64::new(0) }; 1 << 14];
 
 /// Boundary loops of the cell's isosurface, as cyclic lists of edges,
 /// oriented like `vtkMarchingCubes`'s triangles, for any face decisions
@@ -255,25 +221,52 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
     find_loops(f, decisions)
 }
 
-/// The face decisions of the cell ([`face_decisions`]) and its [`loops`],
-/// remembered per sign pattern and decisions (`LOOPS_SEEN`). Only these
-/// decisions are remembered: others (the public [`loops`] takes any) would
-/// share a key with a different answer.
-fn decided_loops(f: &[f64; 8]) -> ([Option<bool>; 6], Loops) {
-    let decisions = face_decisions(f);
-    let mut key = super::case_index(f) as usize;
+/// What an ambiguous cell's patch needs that depends on its sign pattern
+/// and face decisions alone (a face is ambiguous or not by the sign
+/// pattern, so one bit a face, "joins inside", tells the decisions apart):
+/// worked out when a cell first meets them, then shared (finding the loops
+/// alone was a good part of an ambiguous cell's cost).
+struct Plan {
+    /// The boundary loops ([`loops`]).
+    loops: Loops,
+    /// Each corner's region on the cell's boundary (step 2), named by its
+    /// smallest corner, as [`UnionFind::find`] names classes.
+    roots: [u8; 8],
+    /// Per loop, where its fan starts ([`fan_start`]).
+    fans: [u8; 4],
+}
+
+/// The plan of each sign pattern and its faces' decisions (bits 0-7 the
+/// case index, bit `8 + k` set when face `k` joins its inside corners).
+/// Lazily filled: about 0.5 MiB of zeroed memory, of which a volume touches
+/// the pages of the patterns it holds.
+static PLANS: [OnceLock<Plan>; 1 << 14] = [const { OnceLock::new() }; 1 << 14];
+
+/// The face decisions of a cell ([`face_decisions`]) and its [`Plan`].
+/// Only these decisions are planned for: others (the public [`loops`]
+/// takes any) would share a key with a different answer.
+fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], &'static Plan) {
+    let decisions = decisions_of_case(case, f);
+    let mut key = case as usize;
     for (k, d) in decisions.iter().enumerate() {
         if *d == Some(true) {
             key |= 1 << (8 + k);
         }
     }
-    let known = LOOPS_SEEN[key].load(Ordering::Relaxed);
-    if known != 0 {
-        return (decisions, Loops::unpack(known));
-    }
-    let found = find_loops(f, &decisions);
-    LOOPS_SEEN[key].store(found.pack(), Ordering::Relaxed);
-    (decisions, found)
+    let plan = PLANS[key].get_or_init(|| {
+        let loops = find_loops(f, &decisions);
+        let mut uf = boundary_regions(f, &decisions);
+        let mut fans = [NO_FAN; 4];
+        for (k, fan) in fans.iter_mut().enumerate().take(loops.len()) {
+            *fan = fan_start(loops.get(k));
+        }
+        Plan {
+            loops,
+            roots: std::array::from_fn(|c| uf.find(c as u8)),
+            fans,
+        }
+    });
+    (decisions, plan)
 }
 
 /// [`loops`] from scratch.
@@ -376,7 +369,7 @@ fn find_loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
         }
         if len - first >= 3 {
             out.count += 1;
-            out.ends[out.count] = len as u8;
+            out.ends[out.count as usize] = len as u8;
         } else {
             // Too short to bound anything (degenerate data): dropped.
             len = first;
@@ -387,7 +380,16 @@ fn find_loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
 
 /// Union-find classes of corners: regions of `P` and `N` joined on the
 /// boundary and through the interior (steps 2 and 3).
+#[cfg(test)]
 fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
+    let mut uf = boundary_regions(f, decisions);
+    join_through_interior(f, &mut uf);
+    uf
+}
+
+/// The regions of `P` and `N` on the cell's boundary (step 2): corners
+/// joined along edges of one sign and across ambiguous faces as decided.
+fn boundary_regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
     let inside = |c: usize| f[c] >= 0.0;
     let mut uf = UnionFind::new();
     for [a, b] in EDGES {
@@ -404,6 +406,12 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
             uf.union(a, b);
         }
     }
+    uf
+}
+
+/// Joins the boundary regions of `uf` that the cell's interior connects
+/// (step 3), by a sweep along z.
+fn join_through_interior(f: &[f64; 8], uf: &mut UnionFind<8>) {
     // Sweep z: slice corner j (cyclic 0..4) runs from corner j to j + 4.
     let a = [f[0], f[1], f[2], f[3]];
     let b = [f[4] - f[0], f[5] - f[1], f[6] - f[2], f[7] - f[3]];
@@ -424,8 +432,16 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
             n_events += 1;
         }
     }
-    let events = &mut buf[..n_events];
-    events.sort_by(|x, y| x.total_cmp(y));
+    // Insertion sort: eight values at most, where a general sort's set-up
+    // cost more than the sorting.
+    for i in 1..n_events {
+        let mut j = i;
+        while j > 0 && buf[j - 1].total_cmp(&buf[j]).is_gt() {
+            buf.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    let events = &buf[..n_events];
     for w in events.windows(2) {
         if w[1] <= w[0] {
             continue;
@@ -458,7 +474,6 @@ fn regions(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> UnionFind<8> {
         };
         uf.union(end(p), end(q));
     }
-    uf
 }
 
 /// Heights `t` along a sweep axis where the slice across it has its
@@ -525,14 +540,16 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
         }
         None => f,
     };
-    let (decisions, loops) = decided_loops(f);
+    let (_, plan) = planned(super::case_index(f), f);
+    let loops = &plan.loops;
     match loops.len() {
         0 => return,
         // One loop is one disk, whatever the regions.
-        1 => return disk(f, loops.get(0), pinch, out, extra),
+        1 => return disk(f, loops.get(0), plan.fans[0], pinch, out, extra),
         _ => {}
     }
-    let mut uf = regions(f, &decisions);
+    let mut uf = UnionFind(plan.roots);
+    join_through_interior(f, &mut uf);
     // Group loops by (inside region, outside region). A loop has at least
     // three of the twelve edges, so there are at most four.
     let mut keys = [(0u8, 0u8); 4];
@@ -559,7 +576,7 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
             stitch(f, loops.get(group[0]), loops.get(group[1]), out);
         } else {
             for &j in &group[..n] {
-                disk(f, loops.get(j), pinch, out, extra);
+                disk(f, loops.get(j), plan.fans[j], pinch, out, extra);
             }
         }
     }
@@ -625,22 +642,37 @@ fn share_face(a: u8, b: u8) -> bool {
     VERTEX_FACES[a as usize] & VERTEX_FACES[b as usize] != 0
 }
 
-/// A disk: a fan from the first loop vertex whose diagonals all cross the
-/// cell's interior, else a fan around an interior vertex on the surface
-/// (with `pinch`, see [`fan_centre`]).
-fn disk(f: &[f64; 8], l: &[u8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut Vec<[f64; 3]>) {
+/// [`fan_start`] when a loop has none.
+const NO_FAN: u8 = u8::MAX;
+
+/// The first position of loop `l` whose diagonals to the loop's other
+/// vertices all cross the cell's interior (none lies flat in a face, where
+/// the neighbouring cell's patch has its boundary), or [`NO_FAN`].
+fn fan_start(l: &[u8]) -> u8 {
     let n = l.len();
-    if n == 3 {
-        out.push([l[0], l[1], l[2]]);
-        return;
-    }
-    for s in 0..n {
-        if (2..n - 1).all(|k| !share_face(l[s], l[(s + k) % n])) {
-            for k in 1..n - 1 {
-                out.push([l[s], l[(s + k) % n], l[(s + k + 1) % n]]);
-            }
-            return;
+    (0..n)
+        .find(|&s| (2..n - 1).all(|k| !share_face(l[s], l[(s + k) % n])))
+        .map_or(NO_FAN, |s| s as u8)
+}
+
+/// A disk: a fan from loop position `fan` ([`fan_start`] of `l`), else
+/// (`NO_FAN`) a fan around an interior vertex on the surface (with
+/// `pinch`, see [`fan_centre`]).
+fn disk(
+    f: &[f64; 8],
+    l: &[u8],
+    fan: u8,
+    pinch: bool,
+    out: &mut Vec<[u8; 3]>,
+    extra: &mut Vec<[f64; 3]>,
+) {
+    let n = l.len();
+    if fan != NO_FAN {
+        let s = fan as usize;
+        for k in 1..n - 1 {
+            out.push([l[s], l[(s + k) % n], l[(s + k + 1) % n]]);
         }
+        return;
     }
     let c = 12 + extra.len() as u8;
     let g = unit_scaled(f);
@@ -948,11 +980,10 @@ mod tests {
     }
 
     #[test]
-    fn remembered_loops_are_the_loops() {
+    fn planned_loops_regions_and_fans_are_found_afresh() {
         // Every sign pattern with random magnitudes (so every decision of
-        // its ambiguous faces comes up): the remembered answer, on first
-        // and later calls, is what a fresh search finds, and packing keeps
-        // it whole.
+        // its ambiguous faces comes up): the plan, on first and later
+        // calls, holds what a fresh search finds.
         let mut x = 0x9e37_79b9_7f4a_7c15u64;
         let mut uniform = || {
             x ^= x << 13;
@@ -971,13 +1002,27 @@ mod tests {
                 let d = face_decisions(&f);
                 let fresh = find_loops(&f, &d);
                 assert!(!fresh.is_empty());
-                assert!(same(&Loops::unpack(fresh.pack()), &fresh));
+                let mut uf = boundary_regions(&f, &d);
+                let roots: [u8; 8] = std::array::from_fn(|c| uf.find(c as u8));
+                let check = |(dp, plan): ([Option<bool>; 6], &Plan)| {
+                    assert_eq!(dp, d);
+                    assert!(same(&plan.loops, &fresh), "case {case}");
+                    assert_eq!(plan.roots, roots, "case {case}");
+                    for k in 0..4 {
+                        let want = if k < fresh.len() {
+                            fan_start(fresh.get(k))
+                        } else {
+                            NO_FAN
+                        };
+                        assert_eq!(plan.fans[k], want, "case {case} loop {k}");
+                    }
+                };
                 // The public function with other decisions (every face
                 // joined inside) must not change what is remembered.
                 let _ = loops(&f, &[None; 6]);
-                assert!(same(&decided_loops(&f).1, &fresh), "case {case}");
+                check(planned(case as u8, &f));
                 let _ = loops(&f, &[Some(false); 6]);
-                assert!(same(&decided_loops(&f).1, &fresh), "case {case}, again");
+                check(planned(case as u8, &f));
                 loops_seen += fresh.len();
             }
         }

@@ -129,6 +129,24 @@ pub const fn face_is_ambiguous(case: u8, f: usize) -> bool {
     s0 == s2 && s1 == s3 && s0 != s1
 }
 
+/// The ambiguous faces of each sign pattern, bit `k` for face `k`
+/// ([`face_is_ambiguous`]): the asymptotic decider visits only these.
+pub const AMBIGUOUS_FACES: [u8; 256] = {
+    let mut out = [0u8; 256];
+    let mut c = 0;
+    while c < 256 {
+        let mut f = 0;
+        while f < 6 {
+            if face_is_ambiguous(c as u8, f) {
+                out[c] |= 1 << f;
+            }
+            f += 1;
+        }
+        c += 1;
+    }
+    out
+};
+
 /// Cases whose trilinear topology may differ from the fixed table: an
 /// ambiguous face, or two lone corners on a body diagonal (MC case 4 and
 /// its complement, whose interior may hold a tunnel).
@@ -244,7 +262,13 @@ mod tests {
         for f in 0..6 {
             let n = (0..=255u8).filter(|&c| face_is_ambiguous(c, f)).count();
             assert_eq!(n, 32);
+            let masked = (0..=255usize)
+                .filter(|&c| AMBIGUOUS_FACES[c] >> f & 1 == 1)
+                .count();
+            assert_eq!(masked, 32);
         }
+        assert!((0..=255u8).all(|c| (0..6)
+            .all(|f| face_is_ambiguous(c, f) == (AMBIGUOUS_FACES[c as usize] >> f & 1 == 1))));
         assert!(NEEDS_TOPOLOGY_TEST[0b0100_0001]); // corners 0 and 6
         assert!(!NEEDS_TOPOLOGY_TEST[1]);
     }
