@@ -1165,8 +1165,12 @@ int vtkPreciseMarchingCubes::Contour(
     // serial one: say so. (Also for an input that is the piece asked for
     // but without the ghost layer asked with it: a source that ignores
     // ghost levels.)
+    // (Not for a flat volume: the dimension error below says what is
+    // wrong with it, and its pieces, thin along the flat axis, looked a
+    // layer short.)
+    const bool solid = whole[0] < whole[1] && whole[2] < whole[3] && whole[4] < whole[5];
     bool short_of_samples = false;
-    for (int i = 0; (ownSplit || this->ContourPieces > 1) && i < 3; ++i)
+    for (int i = 0; solid && (ownSplit || this->ContourPieces > 1) && i < 3; ++i)
     {
       const int want = global ? std::numeric_limits<int>::max() : neededSamples;
       short_of_samples = short_of_samples ||

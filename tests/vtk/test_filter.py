@@ -1802,6 +1802,56 @@ def test_pieces_without_the_ghost_layer_asked_for_warn():
             assert "for the piece (" in warning
 
 
+def test_pieces_of_a_2d_volume_get_the_dimension_error_alone():
+    # A 2D volume contoured in pieces (as under MPI) has no cells to lack
+    # a ghost layer around: the dimension error, without the warning about
+    # missing samples that came before it (the pieces' extents are thin
+    # along the flat axis, which looked like a layer short).
+    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
+    from vtkmodules.vtkCommonDataModel import vtkImageData
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
+    from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
+
+    wave = vtkRTAnalyticSource()
+    for flat in range(3):
+        extent = [-8, 8] * 3
+        extent[2 * flat:2 * flat + 2] = [0, 0]
+        wave.SetWholeExtent(*extent)
+        wave.Update()
+        image = vtkImageData()
+        image.DeepCopy(wave.GetOutput())
+
+        class Pieces(VTKPythonAlgorithmBase):
+            def __init__(self):
+                super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
+
+            def RequestInformation(self, request, inInfo, outInfo):
+                info = outInfo.GetInformationObject(0)
+                info.Set(sddp.WHOLE_EXTENT(), *image.GetExtent())
+                info.Set(VTKPythonAlgorithmBase.CAN_PRODUCE_SUB_EXTENT(), 1)
+                return 1
+
+            def RequestData(self, request, inInfo, outInfo):
+                info = outInfo.GetInformationObject(0)
+                vtkImageData.GetData(outInfo).ShallowCopy(crop(image, piece_asked(info, image)))
+                return 1
+
+        source = Pieces()  # kept: the pipeline holds no Python reference
+        f = vtkPreciseMarchingCubes()
+        f.SetInputConnection(source.GetOutputPort())
+        f.SetValue(0, 150.0)
+        # Refinement, which needs a ghost layer: the warning's condition.
+        f.SetEpsilon(0.001)
+        f.SetMaxLevel(5)
+        observer = ErrorObserver(f)
+        for piece in range(2):
+            f.UpdatePiece(piece, 2, 0)
+            assert f.GetOutput().GetNumberOfPolys() == 0
+        assert not observer.warnings, (flat, observer.warnings)
+        assert len(observer.errors) == 2, (flat, observer.errors)
+        assert all("dimension != 3" in e for e in observer.errors), observer.errors
+
+
 def test_pieces_without_a_whole_extent_warn():
     # A source that honours pieces but reports no whole extent delivers
     # only its own piece; each piece of the filter takes it for the whole
