@@ -38,7 +38,9 @@
 //! Loops are oriented so that fans wind like `vtkMarchingCubes` (normals
 //! towards lower values); the tube is stitched with the same orientation.
 
-use std::sync::OnceLock;
+use std::cell::UnsafeCell;
+use std::mem::MaybeUninit;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use crate::tables::cube::{
     on_one_face, AMBIGUOUS_FACES, CORNERS, EDGES, FACES, FACE_EDGES, VERTEX_FACES,
@@ -185,6 +187,7 @@ fn decisions_of_case(case: u8, f: &[f64; 8]) -> [Option<bool>; 6] {
 /// A cell's boundary loops: cyclic lists of edges, packed one after the
 /// other (each edge is in at most one loop, so twelve slots suffice and
 /// there are at most four loops of at least three edges).
+#[derive(Debug, Clone, Copy)]
 pub struct Loops {
     edges: [u8; 12],
     /// Loop `k` is `edges[ends[k]..ends[k + 1]]`.
@@ -226,6 +229,7 @@ pub fn loops(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Loops {
 /// pattern, so one bit a face, "joins inside", tells the decisions apart):
 /// worked out when a cell first meets them, then shared (finding the loops
 /// alone was a good part of an ambiguous cell's cost).
+#[derive(Clone, Copy)]
 struct Plan {
     /// The boundary loops ([`loops`]).
     loops: Loops,
@@ -236,16 +240,41 @@ struct Plan {
     fans: [u8; 4],
 }
 
+/// A [`Plan`] kept for later cells: `state` says whether `plan` holds it.
+struct PlanSlot {
+    state: AtomicU8,
+    plan: UnsafeCell<MaybeUninit<Plan>>,
+}
+
+/// [`PlanSlot::state`]: nothing yet, being written, ready to read.
+const EMPTY: u8 = 0;
+const WRITING: u8 = 1;
+const READY: u8 = 2;
+
+// SAFETY: `plan` is written once, by the one thread that moved `state`
+// from EMPTY to WRITING, and read only after that thread stored READY
+// (release / acquire); it never changes after.
+unsafe impl Sync for PlanSlot {}
+
 /// The plan of each sign pattern and its faces' decisions (bits 0-7 the
-/// case index, bit `8 + k` set when face `k` joins its inside corners).
-/// Lazily filled: about 0.5 MiB of zeroed memory, of which a volume touches
-/// the pages of the patterns it holds.
-static PLANS: [OnceLock<Plan>; 1 << 14] = [const { OnceLock::new() }; 1 << 14];
+/// case index, bit `8 + k` set when face `k` joins its inside corners),
+/// kept as cells meet them: about 0.5 MiB of zeroed memory, of which a
+/// volume touches the pages of the patterns it holds. Nothing waits on a
+/// slot: a cell that finds its slot being written works its plan out
+/// itself (the same plan), so a child made by `fork` while another thread
+/// wrote one (left WRITING for good) is only slower on that pattern,
+/// where a lock or a `OnceLock` would have hung it.
+static PLANS: [PlanSlot; 1 << 14] = [const {
+    PlanSlot {
+        state: AtomicU8::new(EMPTY),
+        plan: UnsafeCell::new(MaybeUninit::uninit()),
+    }
+}; 1 << 14];
 
 /// The face decisions of a cell ([`face_decisions`]) and its [`Plan`].
 /// Only these decisions are planned for: others (the public [`loops`]
 /// takes any) would share a key with a different answer.
-fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], &'static Plan) {
+fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], Plan) {
     let decisions = decisions_of_case(case, f);
     let mut key = case as usize;
     for (k, d) in decisions.iter().enumerate() {
@@ -253,20 +282,39 @@ fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], &'static Plan) {
             key |= 1 << (8 + k);
         }
     }
-    let plan = PLANS[key].get_or_init(|| {
-        let loops = find_loops(f, &decisions);
-        let mut uf = boundary_regions(f, &decisions);
-        let mut fans = [NO_FAN; 4];
-        for (k, fan) in fans.iter_mut().enumerate().take(loops.len()) {
-            *fan = fan_start(loops.get(k));
-        }
-        Plan {
-            loops,
-            roots: std::array::from_fn(|c| uf.find(c as u8)),
-            fans,
-        }
-    });
+    let slot = &PLANS[key];
+    if slot.state.load(Ordering::Acquire) == READY {
+        // SAFETY: READY was stored (release) after the plan was written,
+        // and the plan is never written again (see `PlanSlot`).
+        return (decisions, unsafe { (*slot.plan.get()).assume_init() });
+    }
+    let plan = make_plan(f, &decisions);
+    if slot
+        .state
+        .compare_exchange(EMPTY, WRITING, Ordering::Acquire, Ordering::Relaxed)
+        .is_ok()
+    {
+        // SAFETY: this thread alone moved the slot to WRITING; no reader
+        // looks at the plan before READY.
+        unsafe { (*slot.plan.get()).write(plan) };
+        slot.state.store(READY, Ordering::Release);
+    }
     (decisions, plan)
+}
+
+/// A cell's [`Plan`] from scratch.
+fn make_plan(f: &[f64; 8], decisions: &[Option<bool>; 6]) -> Plan {
+    let loops = find_loops(f, decisions);
+    let mut uf = boundary_regions(f, decisions);
+    let mut fans = [NO_FAN; 4];
+    for (k, fan) in fans.iter_mut().enumerate().take(loops.len()) {
+        *fan = fan_start(loops.get(k));
+    }
+    Plan {
+        loops,
+        roots: std::array::from_fn(|c| uf.find(c as u8)),
+        fans,
+    }
 }
 
 /// [`loops`] from scratch.
@@ -591,8 +639,9 @@ const HEADROOM_SCALE: f64 = 5.960464477539063e-8;
 
 /// `f` times [`HEADROOM_SCALE`] when some value exceeds
 /// [`HEADROOM_LIMIT`], else `None`. Differences of values near
-/// `f64::MAX` overflow (the slices' value changes of [`regions`], the
-/// edges' [`crossing`]s, the gradients of [`interior_point`]): a cell of
+/// `f64::MAX` overflow (the slices' value changes of
+/// [`join_through_interior`], the edges' [`crossing`]s, the gradients of
+/// [`interior_point`]): a cell of
 /// such values got the topology of other data. Scaling by a power of two
 /// changes no crossing, decision or root; a value that the scaling would
 /// round to zero keeps its sign as the least subnormal of that sign (its
@@ -1004,7 +1053,7 @@ mod tests {
                 assert!(!fresh.is_empty());
                 let mut uf = boundary_regions(&f, &d);
                 let roots: [u8; 8] = std::array::from_fn(|c| uf.find(c as u8));
-                let check = |(dp, plan): ([Option<bool>; 6], &Plan)| {
+                let check = |(dp, plan): ([Option<bool>; 6], Plan)| {
                     assert_eq!(dp, d);
                     assert!(same(&plan.loops, &fresh), "case {case}");
                     assert_eq!(plan.roots, roots, "case {case}");
@@ -1027,6 +1076,36 @@ mod tests {
             }
         }
         assert!(loops_seen > 254 * 40);
+    }
+
+    #[test]
+    fn a_slot_left_being_written_is_worked_around() {
+        // As in a child forked while another thread wrote the slot: it
+        // stays WRITING for good. Cells of that pattern must still get
+        // their plan, their own, without waiting.
+        let f = [0.3, -0.2, 0.4, -0.1, -0.5, 0.6, -0.7, 0.2];
+        let case = crate::mc::case_index(&f);
+        let d = face_decisions(&f);
+        let mut key = case as usize;
+        for (k, dk) in d.iter().enumerate() {
+            if *dk == Some(true) {
+                key |= 1 << (8 + k);
+            }
+        }
+        let old = PLANS[key].state.swap(WRITING, Ordering::AcqRel);
+        let want = make_plan(&f, &d);
+        for _ in 0..3 {
+            let (dp, plan) = planned(case, &f);
+            assert_eq!(dp, d);
+            assert!(same(&plan.loops, &want.loops));
+            assert_eq!((plan.roots, plan.fans), (want.roots, want.fans));
+            assert_eq!(PLANS[key].state.load(Ordering::Acquire), WRITING);
+        }
+        let (mut got, mut extra) = (Vec::new(), Vec::new());
+        triangles(&f, false, &mut got, &mut extra);
+        assert!(!got.is_empty());
+        // Back as it was (READY only over a plan that was written).
+        PLANS[key].state.store(old, Ordering::Release);
     }
 
     #[test]
