@@ -1745,20 +1745,16 @@ def crop(image, extent):
     return voi.GetOutput()
 
 
-def test_pieces_without_the_ghost_layer_asked_for_warn():
-    # A source with a whole extent that delivers each piece as asked but
-    # without the ghost layer asked with it (and no ghost array): the
-    # surface next to the cuts may differ from the serial one, which the
-    # filter said only for inputs split otherwise than asked. It says it
-    # here too, and not when no ghost layer is needed or the source gives
-    # it.
+def piece_source(image):
+    """A source with `image`'s whole extent that delivers each piece as
+    vtkExtentTranslator cuts it, without a ghost layer, or (its `ghosts`
+    set) the update extent asked for, ghost layer included. Keep a
+    reference: the pipeline holds none on the Python object."""
     from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
     from vtkmodules.vtkCommonDataModel import vtkImageData
     from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
 
-    image = wavelet(8)
-
-    class NoGhosts(VTKPythonAlgorithmBase):
+    class Pieces(VTKPythonAlgorithmBase):
         def __init__(self):
             super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
             self.ghosts = False
@@ -1775,7 +1771,17 @@ def test_pieces_without_the_ghost_layer_asked_for_warn():
             vtkImageData.GetData(outInfo).ShallowCopy(crop(image, extent))
             return 1
 
-    source = NoGhosts()  # kept: the pipeline holds no Python reference
+    return Pieces()
+
+
+def test_pieces_without_the_ghost_layer_asked_for_warn():
+    # A source with a whole extent that delivers each piece as asked but
+    # without the ghost layer asked with it (and no ghost array): the
+    # surface next to the cuts may differ from the serial one, which the
+    # filter said only for inputs split otherwise than asked. It says it
+    # here too, and not when no ghost layer is needed or the source gives
+    # it.
+    source = piece_source(wavelet(8))
     f = vtkPreciseMarchingCubes()
     f.SetInputConnection(source.GetOutputPort())
     f.SetValue(0, 150.0)
@@ -1807,9 +1813,7 @@ def test_pieces_of_a_2d_volume_get_the_dimension_error_alone():
     # a ghost layer around: the dimension error, without the warning about
     # missing samples that came before it (the pieces' extents are thin
     # along the flat axis, which looked like a layer short).
-    from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
     from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline as sddp
     from vtkmodules.vtkImagingCore import vtkRTAnalyticSource
 
     wave = vtkRTAnalyticSource()
@@ -1820,23 +1824,7 @@ def test_pieces_of_a_2d_volume_get_the_dimension_error_alone():
         wave.Update()
         image = vtkImageData()
         image.DeepCopy(wave.GetOutput())
-
-        class Pieces(VTKPythonAlgorithmBase):
-            def __init__(self):
-                super().__init__(nInputPorts=0, nOutputPorts=1, outputType="vtkImageData")
-
-            def RequestInformation(self, request, inInfo, outInfo):
-                info = outInfo.GetInformationObject(0)
-                info.Set(sddp.WHOLE_EXTENT(), *image.GetExtent())
-                info.Set(VTKPythonAlgorithmBase.CAN_PRODUCE_SUB_EXTENT(), 1)
-                return 1
-
-            def RequestData(self, request, inInfo, outInfo):
-                info = outInfo.GetInformationObject(0)
-                vtkImageData.GetData(outInfo).ShallowCopy(crop(image, piece_asked(info, image)))
-                return 1
-
-        source = Pieces()  # kept: the pipeline holds no Python reference
+        source = piece_source(image)
         f = vtkPreciseMarchingCubes()
         f.SetInputConnection(source.GetOutputPort())
         f.SetValue(0, 150.0)
