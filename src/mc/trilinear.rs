@@ -271,22 +271,28 @@ static PLANS: [PlanSlot; 1 << 14] = [const {
     }
 }; 1 << 14];
 
-/// The face decisions of a cell ([`face_decisions`]) and its [`Plan`].
-/// Only these decisions are planned for: others (the public [`loops`]
-/// takes any) would share a key with a different answer.
-fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], Plan) {
-    let decisions = decisions_of_case(case, f);
+/// The slot in [`PLANS`] of a sign pattern and its face decisions.
+fn plan_key(case: u8, decisions: &[Option<bool>; 6]) -> usize {
     let mut key = case as usize;
     for (k, d) in decisions.iter().enumerate() {
         if *d == Some(true) {
             key |= 1 << (8 + k);
         }
     }
-    let slot = &PLANS[key];
+    key
+}
+
+/// The [`Plan`] of a cell, under its own face decisions
+/// ([`face_decisions`]). Only these decisions are planned for: others
+/// (the public [`loops`] takes any) would share a key with a different
+/// answer.
+fn planned(case: u8, f: &[f64; 8]) -> Plan {
+    let decisions = decisions_of_case(case, f);
+    let slot = &PLANS[plan_key(case, &decisions)];
     if slot.state.load(Ordering::Acquire) == READY {
         // SAFETY: READY was stored (release) after the plan was written,
         // and the plan is never written again (see `PlanSlot`).
-        return (decisions, unsafe { (*slot.plan.get()).assume_init() });
+        return unsafe { (*slot.plan.get()).assume_init() };
     }
     let plan = make_plan(f, &decisions);
     if slot
@@ -299,7 +305,7 @@ fn planned(case: u8, f: &[f64; 8]) -> ([Option<bool>; 6], Plan) {
         unsafe { (*slot.plan.get()).write(plan) };
         slot.state.store(READY, Ordering::Release);
     }
-    (decisions, plan)
+    plan
 }
 
 /// A cell's [`Plan`] from scratch.
@@ -588,7 +594,7 @@ pub fn triangles(f: &[f64; 8], pinch: bool, out: &mut Vec<[u8; 3]>, extra: &mut 
         }
         None => f,
     };
-    let (_, plan) = planned(super::case_index(f), f);
+    let plan = planned(super::case_index(f), f);
     let loops = &plan.loops;
     match loops.len() {
         0 => return,
@@ -1053,8 +1059,9 @@ mod tests {
                 assert!(!fresh.is_empty());
                 let mut uf = boundary_regions(&f, &d);
                 let roots: [u8; 8] = std::array::from_fn(|c| uf.find(c as u8));
-                let check = |(dp, plan): ([Option<bool>; 6], Plan)| {
-                    assert_eq!(dp, d);
+                // What `planned` decides the key by.
+                assert_eq!(decisions_of_case(case as u8, &f), d);
+                let check = |plan: Plan| {
                     assert!(same(&plan.loops, &fresh), "case {case}");
                     assert_eq!(plan.roots, roots, "case {case}");
                     for k in 0..4 {
@@ -1086,17 +1093,11 @@ mod tests {
         let f = [0.3, -0.2, 0.4, -0.1, -0.5, 0.6, -0.7, 0.2];
         let case = crate::mc::case_index(&f);
         let d = face_decisions(&f);
-        let mut key = case as usize;
-        for (k, dk) in d.iter().enumerate() {
-            if *dk == Some(true) {
-                key |= 1 << (8 + k);
-            }
-        }
+        let key = plan_key(case, &d);
         let old = PLANS[key].state.swap(WRITING, Ordering::AcqRel);
         let want = make_plan(&f, &d);
         for _ in 0..3 {
-            let (dp, plan) = planned(case, &f);
-            assert_eq!(dp, d);
+            let plan = planned(case, &f);
             assert!(same(&plan.loops, &want.loops));
             assert_eq!((plan.roots, plan.fans), (want.roots, want.fans));
             assert_eq!(PLANS[key].state.load(Ordering::Acquire), WRITING);

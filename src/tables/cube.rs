@@ -155,14 +155,7 @@ pub const NEEDS_TOPOLOGY_TEST: [bool; 256] = {
     let mut c = 0;
     while c < 256 {
         let case = c as u8;
-        let mut amb = false;
-        let mut f = 0;
-        while f < 6 {
-            if face_is_ambiguous(case, f) {
-                amb = true;
-            }
-            f += 1;
-        }
+        let mut amb = AMBIGUOUS_FACES[c] != 0;
         let pos = case.count_ones();
         let diag = [(0u8, 6u8), (1, 7), (2, 4), (3, 5)];
         let mut d = 0;
