@@ -2,7 +2,7 @@
 # Benchmarks and accuracy report: PreciseMC against vtkMarchingCubes,
 # vtkFlyingEdges3D and "upsample then contour" (bench/compare.py).
 #
-#   bash bench/run.sh            # full run, ~14 min on 2 cores -> bench/results/
+#   bash bench/run.sh            # full run, ~14-23 min on 2 cores -> bench/results/
 #   bash bench/run.sh --quick    # ~1.5 min, small volumes -> bench/results-quick/
 #   bash bench/run.sh --only ml,brain_epi   # re-run some volumes' rows
 #   bash bench/run.sh --interleaved-only    # ~1 min, only the interleaved measure
